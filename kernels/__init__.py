@@ -1,0 +1,1 @@
+"""OpenCL C sources of texray, shipped inside the wheel as the package ``texray.kernels``."""

@@ -1,0 +1,24 @@
+#line 2 "raygen.cl"
+/* Stage 1: primary rays of one sample pass over one tile of pixels. */
+
+__kernel void raygen(__global Ray* rays, __constant Camera* cam,
+                     uint width, uint height, uint x0, uint y0, uint tile_w, uint tile_n,
+                     uint sample, uint spp, uint seed)
+{
+    uint gid = get_global_id(0);
+    if (gid >= tile_n) return;
+    uint px = x0 + gid % tile_w, py = y0 + gid / tile_w;
+#if TX_JITTER
+    float2 j = cmj_sample(sample, spp, hash_u32((py * width + px) ^ hash_u32(seed)));
+#else
+    float2 j = (float2)(0.5f, 0.5f);
+#endif
+    float x = 2.0f * ((float)px + j.x) / (float)width - 1.0f;
+    float y = 1.0f - 2.0f * ((float)py + j.y) / (float)height;
+    float3 d = vload3(0, cam->forward) + x * vload3(0, cam->right) + y * vload3(0, cam->up);
+    __global Ray* r = rays + gid;
+    vstore3(vload3(0, cam->eye), 0, r->org);
+    vstore3(d, 0, r->dir);
+    r->tmin = 0.0f;
+    r->tmax = INFINITY;
+}

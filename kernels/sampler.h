@@ -1,0 +1,62 @@
+#line 2 "sampler.h"
+/* Pixel sample positions: correlated multi-jittered sampling (Kensler 2013,
+ * "Correlated Multi-Jittered Sampling", Pixar TM 13-01), which stratifies any
+ * sample count N both as an m x n grid (m = floor(sqrt N), n = ceil(N / m))
+ * and in each 1-D projection. Sample s of pixel p is a pure function of
+ * (s, N, p, seed): renders are deterministic and tiles are independent. */
+#ifndef TEXRAY_SAMPLER_H
+#define TEXRAY_SAMPLER_H
+
+inline uint cmj_permute(uint i, uint l, uint p)
+{
+    uint w = l - 1u;
+    w |= w >> 1; w |= w >> 2; w |= w >> 4; w |= w >> 8; w |= w >> 16;
+    do {
+        i ^= p;             i *= 0xe170893du;
+        i ^= p >> 16;       i ^= (i & w) >> 4;
+        i ^= p >> 8;        i *= 0x0929eb3fu;
+        i ^= p >> 23;       i ^= (i & w) >> 1;
+        i *= 1u | p >> 27;  i *= 0x6935fa69u;
+        i ^= (i & w) >> 11; i *= 0x74dcb303u;
+        i ^= (i & w) >> 2;  i *= 0x9e501cc3u;
+        i ^= (i & w) >> 2;  i *= 0xc860a3dfu;
+        i &= w;             i ^= i >> 5;
+    } while (i >= l);
+    return (i + p) % l;
+}
+
+inline float cmj_randfloat(uint i, uint p)
+{
+    i ^= p;          i ^= i >> 17;
+    i ^= i >> 10;    i *= 0xb36534e5u;
+    i ^= i >> 12;    i ^= i >> 21;
+    i *= 0x93fc4795u; i ^= 0xdf6e307fu;
+    i ^= i >> 17;    i *= 1u | p >> 18;
+    return (float)i * (1.0f / 4294967808.0f);
+}
+
+/* Sample s in [0, N) of the pattern p, in [0, 1)^2. */
+inline float2 cmj_sample(uint s, uint N, uint p)
+{
+    uint m = (uint)sqrt((float)N);
+    while (m * m > N) --m;
+    while ((m + 1u) * (m + 1u) <= N) ++m;
+    uint n = (N + m - 1u) / m;
+    s = cmj_permute(s, N, p * 0x51633e2du);
+    uint sx = cmj_permute(s % m, m, p * 0x68bc21ebu);
+    uint sy = cmj_permute(s / m, n, p * 0x02e5be93u);
+    float jx = cmj_randfloat(s, p * 0x967a889bu);
+    float jy = cmj_randfloat(s, p * 0x368cc8b7u);
+    return (float2)(((float)(s % m) + ((float)sy + jx) / (float)n) / (float)m,
+                    ((float)(s / m) + ((float)sx + jy) / (float)m) / (float)n);
+}
+
+inline uint hash_u32(uint x)
+{
+    x ^= x >> 16; x *= 0x7feb352du;
+    x ^= x >> 15; x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
+#endif

@@ -1,0 +1,32 @@
+#line 2 "shadow.cl"
+/* Stage 4: visibility of every point light from every hit (any-hit rays).
+ *
+ * The origin is offset along the geometric normal on the side the camera ray
+ * came from, by the error bound of the hit point, so the ray cannot re-hit
+ * its own surface (no acne). A light on the other side of the geometric
+ * surface is occluded by that surface itself: it gets vis = 0 without a ray,
+ * which is also what keeps light from leaking through closed meshes. */
+
+__kernel void shadow(__global const Surface* surf, __global uchar* vis, uint n,
+                     __global const float4* nodes, uint nnodes, __global const Triangle* tris,
+                     __global const PointLight* lights, uint nlights)
+{
+    uint gid = get_global_id(0);
+    if (gid >= n) return;
+    __global const Surface* s = surf + gid;
+    if (!s->valid) return;
+    float3 ng = vload3(0, s->ng);
+    float3 org = offset_point(vload3(0, s->p), ng, s->offset);
+    for (uint i = 0; i < nlights; ++i) {
+        float3 d = vload3(0, lights[i].position) - org;
+        uchar v = 0;
+        if (dot3(d, ng) > 0.0f) {
+#if TX_SHADOWS
+            v = !bvh_any(nodes, nnodes, tris, org, d, 0.0f, 1.0f);
+#else
+            v = 1;
+#endif
+        }
+        vis[(size_t)gid * nlights + i] = v;
+    }
+}

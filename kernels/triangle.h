@@ -1,0 +1,95 @@
+#line 2 "triangle.h"
+/* Watertight ray/triangle intersection (Woop, Benthin, Wald 2013, "Watertight
+ * Ray/Triangle Intersection", JCGT 2(1)).
+ *
+ * The ray is sheared so that it runs along +z from the origin; the 2-D edge
+ * functions U, V, W of the sheared vertices then decide the hit. A vertex's
+ * sheared coordinates depend only on the ray and the vertex, and every edge
+ * function is a difference of products of them, so two triangles sharing an
+ * edge compute that edge function from the same numbers: a ray never slips
+ * through a shared edge or vertex. This needs FP_CONTRACT OFF (an FMA would
+ * round one product and not the other), and a float64 recomputation when an
+ * edge function rounds to exactly zero (when the device has fp64). */
+#ifndef TEXRAY_TRIANGLE_H
+#define TEXRAY_TRIANGLE_H
+#pragma OPENCL FP_CONTRACT OFF
+#ifdef cl_khr_fp64
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#endif
+
+typedef struct {
+    float3 org;
+    float3 rx, ry, rz;   /* shear rows: (x', y', z') = (rx.q, ry.q, rz.q) for q = vertex - org */
+} WoopRay;
+
+inline WoopRay woop_setup(float3 org, float3 dir)
+{
+    float3 ad = abs3(dir);
+    int kz = ad.x > ad.y ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
+    int kx = kz == 2 ? 0 : kz + 1;
+    int ky = kx == 2 ? 0 : kx + 1;
+    float dz = comp3(dir, kz);
+    if (dz < 0.0f) { int t = kx; kx = ky; ky = t; }   /* keep the winding */
+    float sx = comp3(dir, kx) / dz, sy = comp3(dir, ky) / dz, sz = 1.0f / dz;
+    WoopRay w;
+    w.org = org;
+    w.rx = unit3(kx) - sx * unit3(kz);
+    w.ry = unit3(ky) - sy * unit3(kz);
+    w.rz = sz * unit3(kz);
+    return w;
+}
+
+/* Hit with t in (tmin, tmax): returns 1 and writes t and the barycentrics b1,
+ * b2 of p1, p2 (P = (1 - b1 - b2) P0 + b1 P1 + b2 P2, the lecture's form).
+ * Degenerate (zero-area) triangles and NaN inputs never hit. */
+inline int triangle_intersect(const WoopRay* w, float3 p0, float3 p1, float3 p2,
+                              float tmin, float tmax, float* t, float* b1, float* b2)
+{
+    float3 A = p0 - w->org, B = p1 - w->org, C = p2 - w->org;
+    float ax = dot3(w->rx, A), ay = dot3(w->ry, A);
+    float bx = dot3(w->rx, B), by = dot3(w->ry, B);
+    float cx = dot3(w->rx, C), cy = dot3(w->ry, C);
+    float U = cx * by - cy * bx;
+    float V = ax * cy - ay * cx;
+    float W = bx * ay - by * ax;
+#ifdef cl_khr_fp64
+    if (U == 0.0f || V == 0.0f || W == 0.0f) {
+        U = (float)((double)cx * (double)by - (double)cy * (double)bx);
+        V = (float)((double)ax * (double)cy - (double)ay * (double)cx);
+        W = (float)((double)bx * (double)ay - (double)by * (double)ax);
+    }
+#endif
+    /* Written so that NaN edge functions fall through to a miss. */
+    if (!((U >= 0.0f && V >= 0.0f && W >= 0.0f) || (U <= 0.0f && V <= 0.0f && W <= 0.0f)))
+        return 0;
+    float det = U + V + W;
+    if (!(det != 0.0f)) return 0;
+    float az = dot3(w->rz, A), bz = dot3(w->rz, B), cz = dot3(w->rz, C);
+    float T = U * az + V * bz + W * cz;
+    float inv = 1.0f / det;
+    float tt = T * inv;
+    if (!(tt > tmin && tt < tmax)) return 0;
+    /* Reject t within its own rounding-error bound of zero (pbrt-v4 6.5.3,
+     * "Conservative Ray-Triangle t Tests"): a ray leaving a surface from a
+     * point offset by that surface's error bound cannot re-hit it. */
+    float max_z = TX_MAX(TX_MAX(fabs(az), fabs(bz)), fabs(cz));
+    float max_x = TX_MAX(TX_MAX(fabs(ax), fabs(bx)), fabs(cx));
+    float max_y = TX_MAX(TX_MAX(fabs(ay), fabs(by)), fabs(cy));
+    float delta_z = gamma_n(3.0f) * max_z;
+    float delta_x = gamma_n(5.0f) * (max_x + max_z);
+    float delta_y = gamma_n(5.0f) * (max_y + max_z);
+    float delta_e = 2.0f * (gamma_n(2.0f) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+    float max_e = TX_MAX(TX_MAX(fabs(U), fabs(V)), fabs(W));
+    float delta_t = 3.0f * (gamma_n(3.0f) * max_e * max_z + delta_e * max_z + delta_z * max_e) * fabs(inv);
+    if (!(tt > delta_t)) return 0;
+    *t = tt;
+    *b1 = V * inv;
+    *b2 = W * inv;
+    return 1;
+}
+
+inline float3 tri_p0(__global const Triangle* tr) { return vload3(0, tr->p0); }
+inline float3 tri_p1(__global const Triangle* tr) { return vload3(0, tr->p1); }
+inline float3 tri_p2(__global const Triangle* tr) { return vload3(0, tr->p2); }
+
+#endif

@@ -1,0 +1,17 @@
+"""texray: a ray tracer whose OpenCL kernels do texture, bump and displacement mapping.
+
+    import texray as tx
+    scene = tx.Scene(camera=tx.Camera(eye=(0, 1, 4), look_at=(0, 0, 0), fov_y=40),
+                     lights=[tx.PointLight(position=(3, 4, 5), intensity=(40, 40, 40))])
+    scene.add(tx.Mesh.load("scenes/meshes/vase.obj", material=tx.Material(diffuse=(0.8, 0.2, 0.2))))
+    tx.render(scene, width=640, height=480, spp=4).save("out.png")
+"""
+from .device import DeviceInfo, devices
+from .errors import BuildError, DeviceError, SceneError, TexrayError
+from .render import Image, render
+from .scene import Camera, Material, Mesh, PointLight, Scene, Texture
+from .transform import Transform
+
+__all__ = ["BuildError", "Camera", "DeviceError", "DeviceInfo", "Image", "Material", "Mesh", "PointLight",
+           "Scene", "SceneError", "TexrayError", "Texture", "Transform", "devices", "render"]
+__version__ = "0.1.0"

@@ -1,0 +1,454 @@
+"""Binned-SAH bounding volume hierarchy, built one tree level at a time with numpy.
+
+Algorithm
+---------
+The tree is built top-down and breadth-first.  Every step handles *all* nodes of
+one depth at once with array operations over all of their primitives; the only
+Python loops are over levels (about log2 n), the three axes and the bins, never
+over nodes or primitives.
+
+* Centroids are sorted once along each axis.  For each axis ``a`` the builder
+  keeps the primitives of the still-splittable ("active") nodes in one array in
+  which every node is a contiguous segment sorted by centroid ``a``, together
+  with their centroid coordinate and box in that same order, so that later
+  passes stream through memory instead of gathering.
+* Binning (Wald 2007, but on all three axes): a node's centroid bounds along
+  ``a`` are the first and last centroid of its segment and are cut into
+  ``bins`` equal bins.  As the segment is sorted, bin ids never decrease inside
+  it, so each (node, bin) pair is one run of consecutive primitives; per-bin
+  counts and bounds come from ``np.minimum.reduceat`` over the run starts (or
+  from ``np.minimum.at`` once runs are short).  Boxes are stored as
+  ``(min x, min y, min z, -max x, -max y, -max z)`` so one minimum gives both.
+* Prefix/suffix minimum sweeps over the bins give, for each of the
+  ``bins - 1`` planes of each axis, ``nL * A(L) + nR * A(R)`` (``A`` = half
+  surface area, in float64); the cheapest plane of the three axes wins.
+* Partition: on the split axis the left child is a prefix of the segment; a
+  per-primitive left/right flag carries the decision to the other two axes,
+  where a stable partition (ranks from ``cumsum``) keeps both children sorted.
+  Primitives of new leaves leave the active arrays and are written to the
+  output ``order`` straight away.
+* Nodes are emitted level by level, so the two children of an interior node
+  are adjacent; a node's bounds are float32 minima/maxima of its primitives'
+  float32 boxes, hence exact.
+
+Leaf policy
+-----------
+* A node with ``count <= max_leaf`` primitives is always a leaf.
+* A node with ``max_leaf < count <= sah_leaf_max`` becomes a leaf when its
+  leaf cost ``t_isect * count * A(node)`` is at most the cost of its best split
+  ``t_trav * A(node) + t_isect * (nL * A(L) + nR * A(R))`` (infinite when no
+  plane separates its centroids).
+* Any other node is split at its best SAH plane; when no plane separates the
+  centroids (all centroids equal), it is split in the middle by count.
+
+So no leaf holds more than :func:`leaf_size_limit` ``= max(max_leaf,
+sah_leaf_max)`` primitives (16 with the defaults).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .layout import BVH_NODE, LEAF_COUNT_MASK, PRIM_TRIANGLE, decode_leaf, encode_leaf
+
+SAH_LEAF_MAX = 16
+"""Default largest leaf the SAH may choose to keep (see the module docstring)."""
+
+# Above this many (node, bin) pairs per primitive, per-bin bounds are gathered
+# with np.minimum.at instead of reduceat (whose cost is per run, not per item).
+_RUNS_PER_PRIM_FOR_AT = 0.1
+
+
+@dataclass
+class BVH:
+    """A built tree.
+
+    nodes: ``BVH_NODE`` structured array, root at index 0 (empty when n == 0).
+    order: (n,) uint32; leaf slot ``i`` holds original primitive ``order[i]``.
+    sah_cost: :func:`sah_cost` of ``nodes`` with the build's costs.
+    depth: number of levels (a single-leaf tree has depth 1, an empty one 0).
+    build_seconds: wall-clock time of :func:`build`.
+    """
+    nodes: np.ndarray
+    order: np.ndarray
+    sah_cost: float
+    depth: int
+    build_seconds: float
+
+
+def leaf_size_limit(max_leaf: int = 4, sah_leaf_max: int = SAH_LEAF_MAX) -> int:
+    """Largest number of primitives a leaf built with these settings can hold."""
+    return max(max_leaf, sah_leaf_max)
+
+
+def build(bmin, bmax, *, max_leaf=4, bins=16, kind=PRIM_TRIANGLE, t_trav=1.0,
+          t_isect=1.0, sah_leaf_max=SAH_LEAF_MAX) -> BVH:
+    """Build a binned-SAH BVH over axis-aligned primitive boxes.
+
+    bmin, bmax: (n, 3) primitive box corners, world units (float32; other real
+        dtypes are converted, rounding outward).
+    max_leaf: nodes with at most this many primitives are always leaves.
+    bins: SAH bins per axis and node (>= 2).
+    kind: primitive kind stored in every leaf (``layout.PRIM_*``).
+    t_trav, t_isect: SAH costs of one node traversal and one intersection.
+    sah_leaf_max: largest node the SAH may keep as a leaf (module docstring).
+
+    Raises ValueError for bad shapes, NaN/inf bounds, bmin > bmax, or bad settings.
+    """
+    t0 = time.perf_counter()
+    lo, hi = _check_boxes(bmin, bmax)
+    _check_settings(max_leaf, bins, kind, t_trav, t_isect, sah_leaf_max)
+    n = len(lo)
+    if n == 0:
+        nodes, order, depth = np.zeros(0, BVH_NODE), np.zeros(0, np.uint32), 0
+    elif n <= max_leaf:
+        bounds = np.concatenate((lo.min(axis=0), -hi.max(axis=0)))[:, None]
+        nodes = _node_records(bounds, np.zeros(1, np.int64), encode_leaf([n], kind))
+        order, depth = np.arange(n, dtype=np.uint32), 1
+    else:
+        builder = _LevelBuilder(lo, hi, max_leaf, bins, kind, t_trav, t_isect,
+                                max(sah_leaf_max, max_leaf))
+        nodes, order, depth = builder.run()
+    cost = sah_cost(nodes, t_trav, t_isect)
+    return BVH(nodes, order, cost, depth, time.perf_counter() - t0)
+
+
+def sah_cost(nodes, t_trav=1.0, t_isect=1.0) -> float:
+    """SAH cost of a tree, relative to its root's surface area.
+
+    ``sum(t_trav * A(n) for interior n) + sum(t_isect * count(n) * A(n) for
+    leaves n)``, divided by ``A(root)``; areas are computed in float64.  If the
+    root has zero area every node does too, and every ratio is taken as 1.
+    An empty tree costs 0.
+    """
+    if len(nodes) == 0:
+        return 0.0
+    lo = nodes["bmin"].astype(np.float64)
+    ext = nodes["bmax"].astype(np.float64) - lo
+    area = ext[:, 0] * ext[:, 1] + ext[:, 1] * ext[:, 2] + ext[:, 2] * ext[:, 0]
+    count, _ = decode_leaf(nodes["count_kind"])
+    weight = np.where(count == 0, t_trav, t_isect * count.astype(np.float64))
+    if area[0] <= 0.0:
+        return float(weight.sum())
+    return float((weight * area).sum() / area[0])
+
+
+# --- input checks -----------------------------------------------------------
+
+def _check_boxes(bmin, bmax):
+    """Validate the box arrays; return them as (n, 3) float32, rounded outward."""
+    lo, hi = np.asarray(bmin), np.asarray(bmax)
+    for name, a in (("bmin", lo), ("bmax", hi)):
+        if a.ndim != 2 or a.shape[1] != 3:
+            raise ValueError(f"{name} must have shape (n, 3), got {a.shape}")
+        if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
+            raise ValueError(f"{name} must hold real numbers, got dtype {a.dtype}")
+    if lo.shape != hi.shape:
+        raise ValueError(f"bmin and bmax shapes differ: {lo.shape} vs {hi.shape}")
+    lo, hi = _to_float32(lo, -np.inf), _to_float32(hi, np.inf)
+    for name, a in (("bmin", lo), ("bmax", hi)):
+        bad = ~np.isfinite(a).all(axis=1)
+        if bad.any():
+            raise ValueError(f"{name} has NaN or infinite values (or values beyond float32 "
+                             f"range) in {bad.sum()} boxes, first at index {bad.argmax()}")
+    bad = (lo > hi).any(axis=1)
+    if bad.any():
+        raise ValueError(f"bmin > bmax in {bad.sum()} boxes, first at index {bad.argmax()}")
+    return lo, hi
+
+
+def _to_float32(a, toward):
+    """``a`` as float32, rounding each value that is not exact ``toward`` +-inf."""
+    if a.dtype == np.float32:
+        return a
+    f = a.astype(np.float32)
+    with np.errstate(invalid="ignore"):
+        wrong = (f > a) if toward < 0 else (f < a)
+    return np.where(wrong, np.nextafter(f, np.float32(toward)), f)
+
+
+def _check_settings(max_leaf, bins, kind, t_trav, t_isect, sah_leaf_max):
+    if not 1 <= max_leaf <= LEAF_COUNT_MASK:
+        raise ValueError(f"max_leaf must be in 1..{LEAF_COUNT_MASK}, got {max_leaf}")
+    if not 1 <= sah_leaf_max <= LEAF_COUNT_MASK:
+        raise ValueError(f"sah_leaf_max must be in 1..{LEAF_COUNT_MASK}, got {sah_leaf_max}")
+    if bins < 2:
+        raise ValueError(f"bins must be at least 2, got {bins}")
+    if not 0 <= kind <= 255:
+        raise ValueError(f"kind must fit in 8 bits, got {kind}")
+    if not (np.isfinite(t_trav) and np.isfinite(t_isect) and t_trav >= 0 and t_isect > 0):
+        raise ValueError(f"need t_trav >= 0 and t_isect > 0, got {t_trav}, {t_isect}")
+
+
+# --- geometry helpers -------------------------------------------------------
+
+def _half_area(b):
+    """Half surface area (float64) of boxes ``b`` of shape (6, ...): min xyz, -max xyz."""
+    e = -(b[3:].astype(np.float64) + b[:3])
+    return e[0] * e[1] + e[1] * e[2] + e[2] * e[0]
+
+
+def _scaled_half_area(b, inv_s):
+    """Half area (float32) of boxes ``b`` (6, ..., k), in units of ``1 / inv_s[k]**2``.
+
+    Scaling each node's extents to about 1 keeps the products in float32 range
+    for any coordinates; empty boxes (all +inf) give +inf.
+    """
+    e = b[3:] + b[:3]                # minus the extents
+    e *= inv_s
+    area = e[0] * e[1]
+    area += e[1] * e[2]
+    area += e[2] * e[0]
+    return area
+
+
+def _inverse_size(bounds):
+    """Per node 1 / (largest extent), float32, for :func:`_scaled_half_area`."""
+    size = -(bounds[3:].astype(np.float64) + bounds[:3]).min(axis=0)
+    with np.errstate(divide="ignore"):
+        inv = np.where(size > 0, 1.0 / size, 1.0)
+    return np.clip(inv, 2.0 ** -126, 2.0 ** 126).astype(np.float32)
+
+
+def _sweep_min(d):
+    """Running minimum of ``d`` (6, bins, k) along the bin axis."""
+    out = np.empty(d.shape, d.dtype)
+    out[:, 0] = d[:, 0]
+    for i in range(1, d.shape[1]):
+        np.minimum(out[:, i - 1], d[:, i], out=out[:, i])
+    return out
+
+
+def _exclusive_cumsum(x):
+    out = np.zeros(len(x), np.int64)
+    np.cumsum(x[:-1], out=out[1:])
+    return out
+
+
+def _node_records(bounds, first, count_kind):
+    """BVH_NODE records from bounds (6, k), ``first`` (k,) and ``count_kind`` (k,)."""
+    rec = np.zeros(bounds.shape[1], BVH_NODE)
+    rec["bmin"] = bounds[:3].T
+    rec["bmax"] = -bounds[3:].T
+    rec["first"] = first
+    rec["count_kind"] = count_kind
+    return rec
+
+
+# --- the level-by-level builder --------------------------------------------
+
+@dataclass
+class _Segments:
+    """Active nodes of a level as contiguous segments of the per-axis arrays."""
+    cnt: np.ndarray    # (k,) int64 primitives per node
+    start: np.ndarray  # (k,) int64 first element of each segment
+    node: np.ndarray   # (m,) int64 node of each element
+
+    @classmethod
+    def of(cls, cnt):
+        return cls(cnt, _exclusive_cumsum(cnt), np.repeat(np.arange(len(cnt)), cnt))
+
+    def per_element(self, values):
+        return np.repeat(values, self.cnt)
+
+
+@dataclass
+class _Axis:
+    """Active primitives sorted, inside each node's segment, along one axis."""
+    ids: np.ndarray    # (m,) intp original primitive index
+    cent: np.ndarray   # (m,) float32 centroid coordinate on this axis
+    box: np.ndarray    # (6, m) float32 boxes, min xyz then -max xyz
+
+    def permuted(self, dest):
+        """Copy with element ``i`` moved to position ``dest[i]``."""
+        out = _Axis(np.empty_like(self.ids), np.empty_like(self.cent), np.empty_like(self.box))
+        out.ids[dest] = self.ids
+        out.cent[dest] = self.cent
+        for r in range(6):
+            out.box[r][dest] = self.box[r]
+        return out
+
+    def head(self, m):
+        return _Axis(self.ids[:m], self.cent[:m], self.box[:, :m])
+
+
+@dataclass
+class _Level:
+    """All nodes of one depth, in output order."""
+    cnt: np.ndarray     # (k,) int64 primitives per node
+    bounds: np.ndarray  # (6, k) float32, min xyz then -max xyz
+    leaf: np.ndarray    # (k,) bool: already known to be a leaf (count <= max_leaf)
+    first: np.ndarray   # (k,) int64 leaf slot of known leaves (else unused)
+
+
+def _bin_bounds(ax, seg, bins):
+    """Bounds (6, bins, k) and primitive counts (bins, k) of every node's bins on one axis.
+
+    The node's centroid range is cut into ``bins`` equal bins; empty bins are +inf.
+    """
+    k, m = len(seg.cnt), len(ax.cent)
+    cmin = ax.cent[seg.start].astype(np.float64)
+    ext = ax.cent[seg.start + seg.cnt - 1] - cmin
+    scale = np.divide(bins * (1.0 - 2.0 ** -20), ext, out=np.zeros_like(ext), where=ext > 0)
+    b = ((ax.cent - seg.per_element(cmin)) * seg.per_element(scale)).astype(np.intp)
+    np.minimum(b, bins - 1, out=b)
+    slot = b * k + seg.node                       # cell of a (bins, k) grid
+    dense = np.full((6, bins * k), np.inf, np.float32)
+    if bins * k <= _RUNS_PER_PRIM_FOR_AT * m:     # few, long (node, bin) runs
+        runs = np.concatenate(([0], np.flatnonzero(slot[1:] != slot[:-1]) + 1))
+        dense[:, slot[runs]] = np.minimum.reduceat(ax.box, runs, axis=1)
+        count = np.zeros(bins * k, np.int64)
+        count[slot[runs]] = np.diff(runs, append=m)
+    else:
+        for r in range(6):
+            np.minimum.at(dense[r], slot, ax.box[r])
+        count = np.bincount(slot, minlength=bins * k)
+    return dense.reshape(6, bins, k), count.reshape(bins, k)
+
+
+def _best_plane(ax, seg, bins, inv_s):
+    """Cheapest binned SAH plane of every active node along one axis.
+
+    Returns ``cost`` (k,) float32, ``nL*A(L) + nR*A(R)`` in units of
+    ``1 / inv_s**2`` (inf when no plane has primitives on both sides), and
+    ``n_left`` (k,) int64, the primitives left of that plane.
+    """
+    dense, count = _bin_bounds(ax, seg, bins)
+    left = _sweep_min(dense)[:, :-1]               # bins 0..i, plane i
+    right = _sweep_min(dense[:, ::-1])[:, -2::-1]  # bins i+1..bins-1
+    n_left = np.cumsum(count, axis=0)[:-1]
+    n_right = seg.cnt - n_left
+    with np.errstate(invalid="ignore", over="ignore"):
+        cost = _scaled_half_area(left, inv_s) * n_left.astype(np.float32)
+        cost += _scaled_half_area(right, inv_s) * n_right.astype(np.float32)
+    cost[(n_left == 0) | (n_right == 0)] = np.inf
+    plane = cost.argmin(axis=0)
+    cols = np.arange(len(seg.cnt))
+    return cost[plane, cols], n_left[plane, cols]
+
+
+class _LevelBuilder:
+    def __init__(self, lo, hi, max_leaf, bins, kind, t_trav, t_isect, sah_leaf_max):
+        self.max_leaf, self.bins, self.kind = max_leaf, bins, kind
+        self.t_trav, self.t_isect, self.sah_leaf_max = t_trav, t_isect, sah_leaf_max
+        self.n = len(lo)
+        box = np.concatenate((lo.T, -hi.T))                # (6, n)
+        cent = (lo * np.float32(0.5) + hi * np.float32(0.5)).T
+        self.axes = []
+        for a in range(3):
+            ids = np.argsort(cent[a])
+            self.axes.append(_Axis(ids, cent[a][ids], np.take(box, ids, axis=1)))
+        self.flag = np.empty(self.n, bool)                 # scratch: goes left?
+        self.order = np.empty(self.n, np.uint32)
+        self.filled = 0                                    # leaf slots written
+        root_bounds = np.minimum.reduce(box, axis=1)[:, None]
+        self.level = _Level(np.array([self.n]), root_bounds, np.zeros(1, bool),
+                            np.zeros(1, np.int64))
+
+    def run(self):
+        """Returns (nodes, order, depth)."""
+        records, base = [], 0
+        while len(self.level.cnt):
+            lvl = self.level
+            k = len(lvl.cnt)
+            first = lvl.first.copy()
+            count_kind = np.zeros(k, np.uint32)
+            active = np.flatnonzero(~lvl.leaf)
+            self.level = _Level(np.zeros(0, np.int64), None, None, None)
+            if len(active):
+                leaf, slots, n_splits = self._split(lvl.cnt[active], lvl.bounds[:, active])
+                first[active[leaf]] = slots
+                lvl.leaf[active[leaf]] = True
+                first[active[~leaf]] = base + k + 2 * np.arange(n_splits)
+            count_kind[lvl.leaf] = encode_leaf(lvl.cnt[lvl.leaf], self.kind)
+            records.append(_node_records(lvl.bounds, first, count_kind))
+            base += k
+        return np.concatenate(records), self.order, len(records)
+
+    def _split(self, cnt, bounds):
+        """Split or finish the active nodes; sets ``self.level`` to their children.
+
+        Returns (leaf mask over the active nodes, leaf slots of those leaves,
+        number of split nodes).
+        """
+        seg = _Segments.of(cnt)
+        inv_s = _inverse_size(bounds)
+        costs, n_lefts = zip(*(_best_plane(ax, seg, self.bins, inv_s) for ax in self.axes))
+        area = _half_area(bounds) * inv_s.astype(np.float64) ** 2
+        leaf, axis, n_left = self._choose(cnt, area, costs, n_lefts)
+        return self._partition(seg, leaf, axis, n_left)
+
+    def _choose(self, cnt, area, costs, n_lefts):
+        """Per active node: leaf?, split axis, primitives going left (all for leaves)."""
+        cols = np.arange(len(cnt))
+        axis = np.argmin(costs, axis=0)
+        best_cost, n_left = np.array(costs)[axis, cols], np.array(n_lefts)[axis, cols]
+        split_cost = self.t_trav * area + self.t_isect * best_cost
+        leaf = (cnt <= self.sah_leaf_max) & (self.t_isect * cnt * area <= split_cost)
+        middle = ~leaf & ~np.isfinite(best_cost)
+        axis[leaf | middle] = 0
+        n_left[middle] = cnt[middle] // 2
+        n_left[leaf] = cnt[leaf]
+        return leaf, axis, n_left
+
+    def _partition(self, seg, leaf, axis, n_left):
+        """Reorder the per-axis arrays into the children's segments.
+
+        Output layout (length m): primitives of active children first, then a
+        tail with the primitives of new leaves (leaf nodes, and children with at
+        most ``max_leaf`` primitives), which is copied to ``order``.
+        """
+        cnt, n_right = seg.cnt, seg.cnt - n_left
+        split = ~leaf
+        act_l = split & (n_left > self.max_leaf)
+        act_r = split & (n_right > self.max_leaf)
+        act_cnt = n_left * act_l + n_right * act_r
+        act_base = _exclusive_cumsum(act_cnt)
+        m, m_new = len(seg.node), int(act_cnt.sum())
+        tail_base = m_new + _exclusive_cumsum(cnt - act_cnt)
+        base_l = np.where(act_l, act_base, tail_base)
+        base_r = np.where(act_r, act_base + n_left * act_l, tail_base + n_left * ~act_l)
+
+        # Left flag per primitive: a prefix of the segment on the chosen axis.
+        index = np.arange(m)
+        pos = index - seg.per_element(seg.start)
+        chosen = np.choose(seg.per_element(axis), [ax.ids for ax in self.axes])
+        self.flag[chosen] = pos < seg.per_element(n_left)
+
+        # Stable partition.  With c = number of lefts up to element i (inclusive)
+        # and l = lefts in earlier nodes, a left goes to base_l + c - l - 1 and a
+        # right to base_r + pos - (c - l); dest = to_r - c + left * (to_l - to_r + 2c).
+        lefts_before = _exclusive_cumsum(n_left)
+        to_r = seg.per_element(base_r + lefts_before - seg.start) + index
+        l_minus_r = seg.per_element(base_l - lefts_before - 1) - to_r
+        new_axes = []
+        for ax in self.axes:
+            goes_left = self.flag[ax.ids]
+            c = np.cumsum(goes_left)
+            dest = c * 2
+            dest += l_minus_r
+            dest *= goes_left
+            dest += to_r
+            dest -= c
+            new_axes.append(ax.permuted(dest))
+
+        self.order[self.filled:self.filled + m - m_new] = new_axes[0].ids[m_new:]
+        slot0 = self.filled - m_new
+        self.filled += m - m_new
+
+        # Children, and bounds of every output segment (children and new leaves).
+        starts = np.concatenate((base_l, base_r[split]))
+        by_start = np.argsort(starts)
+        bounds = np.empty((6, len(starts)), np.float32)
+        bounds[:, by_start] = np.minimum.reduceat(new_axes[0].box, starts[by_start], axis=1)
+        k, s = len(cnt), int(split.sum())
+        child = np.empty(2 * s, np.int64)                 # index into starts
+        child[0::2] = np.flatnonzero(split)
+        child[1::2] = k + np.arange(s)
+        child_cnt = np.concatenate((n_left, n_right[split]))[child]
+        self.level = _Level(child_cnt, bounds[:, child], child_cnt <= self.max_leaf,
+                            starts[child] + slot0)
+        self.axes = [ax.head(m_new) for ax in new_axes]
+        return leaf, base_l[leaf] + slot0, s

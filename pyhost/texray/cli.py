@@ -1,0 +1,94 @@
+"""Command line: ``texray render``, ``texray devices``, ``texray bench``."""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+from .errors import TexrayError
+
+
+class _Progress:
+    """A one-line progress bar on stderr, shown only once a render has run for a second."""
+
+    def __init__(self, stream=sys.stderr):
+        self.stream, self.t0, self.shown = stream, time.perf_counter(), False
+
+    def __call__(self, fraction):
+        elapsed = time.perf_counter() - self.t0
+        if elapsed < 1.0 and fraction < 1.0:
+            return
+        self.shown = True
+        bar = "#" * int(30 * fraction)
+        eta = elapsed / max(fraction, 1e-9) - elapsed
+        self.stream.write(f"\rrendering [{bar:<30}] {100 * fraction:5.1f}%  {elapsed:6.1f}s  eta {eta:5.1f}s")
+        self.stream.flush()
+
+    def close(self):
+        if self.shown:
+            self.stream.write("\n")
+
+
+def _cmd_render(args):
+    from .render import render
+    from .scene import Scene
+    scene = Scene.load(args.scene)
+    settings = getattr(scene, "render_settings", {})
+    width = args.width or settings.get("width", 640)
+    height = args.height or settings.get("height", 480)
+    spp = args.spp or settings.get("spp", 4)
+    seed = args.seed if args.seed is not None else settings.get("seed", 0)
+    device = int(args.device) if args.device is not None and args.device.isdigit() else args.device
+    bar = _Progress()
+    try:
+        image = render(scene, width=width, height=height, spp=spp, device=device, seed=seed, progress=bar)
+    finally:
+        bar.close()
+    image.save(args.output)
+    s = image.stats
+    print(f"{args.output}: {width}x{height}, {spp} spp, {s['triangles']} triangles on {s['device']}: "
+          f"render {s['render_s']:.2f} s (program build {s['program_build_s']:.2f} s, "
+          f"scene {s['scene_compile_s']:.2f} s)")
+
+
+def _cmd_devices(args):
+    from .device import devices
+    devs = devices()
+    if not devs:
+        print("no OpenCL devices")
+    for d in devs:
+        print(d)
+
+
+def _cmd_bench(args):
+    from .bench import main as bench_main
+    return bench_main(args.bench_args)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(prog="texray", description="Ray trace textured scenes with OpenCL.")
+    sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("render", help="render a TOML scene file to an image")
+    r.add_argument("scene")
+    r.add_argument("-o", "--output", required=True, help="output image (.png, .jpg, .exr, ...)")
+    r.add_argument("--width", type=int)
+    r.add_argument("--height", type=int)
+    r.add_argument("--spp", type=int, help="samples per pixel")
+    r.add_argument("--seed", type=int)
+    r.add_argument("--device", help="'cpu', 'gpu', an index from 'texray devices', or a name substring")
+    r.set_defaults(func=_cmd_render)
+    d = sub.add_parser("devices", help="list OpenCL devices")
+    d.set_defaults(func=_cmd_devices)
+    b = sub.add_parser("bench", help="run the kernel benchmark (see 'texray bench -- --help')", add_help=False)
+    b.add_argument("bench_args", nargs=argparse.REMAINDER)
+    b.set_defaults(func=_cmd_bench)
+    args = p.parse_args(argv)
+    try:
+        return args.func(args) or 0
+    except TexrayError as e:
+        print(f"texray: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

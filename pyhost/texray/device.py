@@ -1,0 +1,195 @@
+"""OpenCL devices: discovery, selection, contexts and the program cache.
+
+Selection (``device=`` of :func:`texray.render`):
+
+* ``None``: ``PYOPENCL_CTX`` if set (pyopencl's own syntax, e.g. ``"0:1"``),
+  else the first GPU of any platform, else the first CPU (PoCL ships with
+  ``pyopencl[pocl]``, so there always is one).
+* ``"cpu"`` / ``"gpu"``: the first device of that type.
+* an ``int``: an index into :func:`devices`.
+* any other string: the first device whose name or platform name contains it
+  (case-insensitive).
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import threading
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import pyopencl as cl
+
+from .errors import BuildError, DeviceError
+from . import layout
+
+
+
+def _kernel_dir() -> Path:
+    """Where the .cl sources are: the installed package ``texray.kernels``, or
+    the repository's ``kernels/`` when running from a source tree."""
+    import importlib.util
+    try:
+        spec = importlib.util.find_spec("texray.kernels")
+    except ImportError:
+        spec = None
+    if spec is not None and spec.submodule_search_locations:
+        for loc in spec.submodule_search_locations:
+            if (Path(loc) / "texray.cl").is_file():
+                return Path(loc)
+    repo = Path(__file__).resolve().parents[2] / "kernels"
+    if (repo / "texray.cl").is_file():
+        return repo
+    raise DeviceError("texray's OpenCL sources (texray.cl) were not found: the installation is incomplete")
+
+
+KERNEL_DIR = _kernel_dir()
+
+
+@dataclass(frozen=True)
+class DeviceInfo:
+    """One OpenCL device as listed by :func:`devices`."""
+    index: int
+    name: str
+    platform: str
+    type: str            # "cpu", "gpu", "accelerator" or "other"
+    compute_units: int
+    global_mem: int      # bytes
+    max_alloc: int       # bytes, largest single buffer
+    fp64: bool
+
+    def __str__(self):
+        return (f"[{self.index}] {self.name} ({self.platform}, {self.type}, {self.compute_units} CUs, "
+                f"{self.global_mem / 2**30:.1f} GiB)")
+
+
+def _type_name(t):
+    if t & cl.device_type.GPU:
+        return "gpu"
+    if t & cl.device_type.CPU:
+        return "cpu"
+    if t & cl.device_type.ACCELERATOR:
+        return "accelerator"
+    return "other"
+
+
+@lru_cache(maxsize=1)
+def _all_devices():
+    out = []
+    try:
+        platforms = cl.get_platforms()
+    except cl.Error:
+        platforms = []
+    for p in platforms:
+        try:
+            out.extend(p.get_devices())
+        except cl.Error:
+            continue
+    return tuple(out)
+
+
+def devices() -> list[DeviceInfo]:
+    """All OpenCL devices of all platforms, in a stable order."""
+    return [DeviceInfo(i, d.name.strip(), d.platform.name.strip(), _type_name(d.type), d.max_compute_units,
+                       d.global_mem_size, d.max_mem_alloc_size, "cl_khr_fp64" in d.extensions)
+            for i, d in enumerate(_all_devices())]
+
+
+def select_device(device=None) -> cl.Device:
+    """The pyopencl device that ``device`` names (see module docstring)."""
+    devs = _all_devices()
+    if not devs:
+        raise DeviceError("no OpenCL device found: install pyopencl[pocl] for the CPU device")
+    if isinstance(device, cl.Device):
+        return device
+    if device is None:
+        if os.environ.get("PYOPENCL_CTX"):
+            return cl.create_some_context(interactive=False).devices[0]
+        for want in (cl.device_type.GPU, cl.device_type.CPU):
+            for d in devs:
+                if d.type & want:
+                    return d
+        return devs[0]
+    if isinstance(device, bool) or not isinstance(device, (int, str)):
+        raise DeviceError(f"device: expected None, an int or a str, got {device!r}")
+    if isinstance(device, int):
+        if not 0 <= device < len(devs):
+            raise DeviceError(f"device: index {device} out of range; {len(devs)} device(s): "
+                              + "; ".join(map(str, devices())))
+        return devs[device]
+    key = device.strip().lower()
+    if key in ("cpu", "gpu"):
+        for d in devs:
+            if _type_name(d.type) == key:
+                return d
+        raise DeviceError(f"device: no {key.upper()} device; available: " + "; ".join(map(str, devices())))
+    for d in devs:
+        if key in d.name.lower() or key in d.platform.name.lower():
+            return d
+    raise DeviceError(f"device: no device matches {device!r}; available: " + "; ".join(map(str, devices())))
+
+
+class Runtime:
+    """A context and a profiling-enabled queue on one device, with its program cache."""
+
+    def __init__(self, dev: cl.Device):
+        self.device = dev
+        self.context = cl.Context([dev])
+        self.queue = cl.CommandQueue(self.context, properties=cl.command_queue_properties.PROFILING_ENABLE)
+        self._programs = {}
+        self._lock = threading.Lock()
+        self.build_log = []          # (options, seconds, from_cache) per program built in this process
+
+    @property
+    def fp64(self):
+        return "cl_khr_fp64" in self.device.extensions
+
+    def program(self, defines: dict[str, int]) -> cl.Program:
+        """The texray program compiled with ``-D name=value`` for each of ``defines``.
+
+        Built once per (device, source, options) in this process; pyopencl's
+        binary cache on disk makes the next process's build cheap as well.
+        Raises BuildError with the compiler log on failure.
+        """
+        source = layout.opencl_declarations() + '#include "texray.cl"\n'
+        options = [f"-D{k}={int(v)}" for k, v in sorted(defines.items())] + ["-I", str(KERNEL_DIR)]
+        key = (hashlib.sha256((source + _kernel_sources_digest()).encode()).hexdigest(), tuple(options))
+        with self._lock:
+            prg = self._programs.get(key)
+            if prg is None:
+                import time
+                t0 = time.perf_counter()
+                try:
+                    prg = cl.Program(self.context, source).build(options=options)
+                except cl.Error as e:   # pyopencl's build failure carries the compiler log in its message
+                    raise BuildError(f"OpenCL build failed on {self.device.name.strip()} with options "
+                                     f"{' '.join(options)}:\n{e}") from None
+                self.build_log.append((tuple(options), time.perf_counter() - t0))
+                self._programs[key] = prg
+        return prg
+
+
+@lru_cache(maxsize=1)
+def _kernel_sources_digest() -> str:
+    """Hash of every kernel source file, so an edited header invalidates the cache."""
+    h = hashlib.sha256()
+    for p in sorted(KERNEL_DIR.glob("*")):
+        if p.suffix in (".cl", ".h"):
+            h.update(p.name.encode())
+            h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+_runtimes: dict = {}
+_runtimes_lock = threading.Lock()
+
+
+def runtime(device=None) -> Runtime:
+    """The shared :class:`Runtime` of the selected device (created on first use)."""
+    dev = select_device(device)
+    with _runtimes_lock:
+        rt = _runtimes.get(dev.int_ptr)
+        if rt is None:
+            rt = _runtimes[dev.int_ptr] = Runtime(dev)
+    return rt

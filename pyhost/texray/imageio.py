@@ -1,0 +1,68 @@
+"""Image files through OpenImageIO: reading textures, writing renders."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .colour import linear_to_srgb
+from .errors import SceneError
+
+_LINEAR_FORMATS = {".exr", ".hdr", ".pfm"}
+
+
+def read_image(path, field="texture"):
+    """Pixels of an image file as float32 (H, W, C), row 0 = top row, and its colour-space name.
+
+    8/16-bit integer files come back scaled to [0, 1]. Raises SceneError
+    naming the file for a missing, unreadable or empty image.
+    """
+    import OpenImageIO as oiio
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError(f"{field}: file not found: {path}")
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        raise SceneError(f"{field}: cannot read image {path}: {oiio.geterror() or 'unknown format'}")
+    try:
+        spec = inp.spec()
+        if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
+            raise SceneError(f"{field}: image {path} has no pixels ({spec.width}x{spec.height}x{spec.nchannels})")
+        pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
+        if pixels is None:
+            raise SceneError(f"{field}: cannot decode image {path}: {inp.geterror()}")
+        colorspace = spec.get_string_attribute("oiio:ColorSpace", "")
+    finally:
+        inp.close()
+    pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+    return pixels, colorspace
+
+
+def write_image(path, rgb):
+    """Write linear float RGB (H, W, 3): PNG/JPEG/TIFF as 8-bit sRGB (clamped), EXR/HDR as linear float."""
+    import OpenImageIO as oiio
+    path = Path(path)
+    rgb = np.ascontiguousarray(rgb, dtype=np.float32)
+    if rgb.ndim == 2:
+        rgb = rgb[:, :, None]
+    h, w, c = rgb.shape
+    ext = path.suffix.lower()
+    if ext in _LINEAR_FORMATS:
+        data, fmt = rgb, "half" if ext == ".exr" else "float"
+    elif ext in (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".tga"):
+        data, fmt = np.round(linear_to_srgb(rgb) * 255.0).astype(np.uint8), "uint8"
+    else:
+        raise SceneError(f"output: unsupported image extension {ext!r} in {path} "
+                         "(use .png, .jpg, .tif, .exr or .hdr)")
+    out = oiio.ImageOutput.create(str(path))
+    if out is None:
+        raise SceneError(f"output: cannot create {path}: {oiio.geterror()}")
+    spec = oiio.ImageSpec(w, h, c, fmt)
+    if ext not in _LINEAR_FORMATS:
+        spec.attribute("oiio:ColorSpace", "sRGB")
+    if not out.open(str(path), spec):
+        raise SceneError(f"output: cannot open {path} for writing: {out.geterror()}")
+    ok = out.write_image(data)
+    out.close()
+    if not ok:
+        raise SceneError(f"output: writing {path} failed: {out.geterror()}")

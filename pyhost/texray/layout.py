@@ -1,0 +1,137 @@
+"""Every struct shared by host and device, declared once.
+
+Each numpy dtype below is the single source of truth for one device struct:
+:func:`opencl_declarations` emits the matching OpenCL C ``typedef``\\ s (written
+into the generated header ``texray_layout.h`` at build time), and
+``tests/test_layout.py`` asks each device for ``sizeof``/``offsetof`` and
+compares them with these dtypes.
+
+All fields are 4-byte scalars or fixed arrays of them, grouped so that every
+struct is a multiple of 16 bytes; kernels may therefore read a struct as
+consecutive ``float4`` words (the BVH node is read as two ``float4``).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+# --- BVH node: 32 bytes -----------------------------------------------------
+# Interior node: count_kind == 0, children at ``first`` and ``first + 1``.
+# Leaf: low 24 bits of count_kind = number of primitives (>= 1), starting at
+# ``first`` in the primitive array of the leaf's kind; the top 8 bits hold
+# the primitive kind (PRIM_TRIANGLE, ...), so one tree can hold several kinds
+# with homogeneous leaves.
+BVH_NODE = np.dtype([
+    ("bmin", "<f4", (3,)), ("first", "<u4"),
+    ("bmax", "<f4", (3,)), ("count_kind", "<u4"),
+])
+LEAF_COUNT_BITS = 24
+LEAF_COUNT_MASK = (1 << LEAF_COUNT_BITS) - 1
+PRIM_TRIANGLE = 0
+
+
+def encode_leaf(count, kind=PRIM_TRIANGLE):
+    """Pack a leaf's primitive count and kind into ``count_kind``."""
+    count = np.asarray(count, dtype=np.uint64)
+    if np.any(count < 1) or np.any(count > LEAF_COUNT_MASK):
+        raise ValueError(f"leaf primitive count out of range 1..{LEAF_COUNT_MASK}")
+    return (count | (np.uint64(kind) << np.uint64(LEAF_COUNT_BITS))).astype(np.uint32)
+
+
+def decode_leaf(count_kind):
+    """Return (count, kind) arrays from ``count_kind`` (count 0 = interior)."""
+    ck = np.asarray(count_kind, dtype=np.uint32)
+    return ck & np.uint32(LEAF_COUNT_MASK), ck >> np.uint32(LEAF_COUNT_BITS)
+
+
+# --- Triangle, in BVH leaf order: 64 bytes ----------------------------------
+# Positions are world space (object transform applied on the host).
+# ``v`` indexes the per-vertex shading arrays (normals, uvs) of the scene.
+TRIANGLE = np.dtype([
+    ("p0", "<f4", (3,)), ("material", "<u4"),
+    ("p1", "<f4", (3,)), ("object", "<u4"),
+    ("p2", "<f4", (3,)), ("prim", "<u4"),
+    ("v", "<u4", (3,)), ("flags", "<u4"),
+])
+TRI_HAS_NORMALS = 1
+TRI_HAS_UVS = 2
+
+# --- Material: 48 bytes -----------------------------------------------------
+# Texture slots are indices into the texture table, -1 = none.
+MATERIAL = np.dtype([
+    ("diffuse", "<f4", (3,)), ("diffuse_tex", "<i4"),
+    ("specular", "<f4", (3,)), ("shininess", "<f4"),
+    ("specular_tex", "<i4"), ("bump_tex", "<i4"), ("normal_tex", "<i4"), ("pad0", "<i4"),
+])
+
+# --- Texture table entry: 16 bytes ------------------------------------------
+# Texels are RGBA half floats, linear, row 0 = the file's top row; a texture
+# occupies width*height texels starting at texel ``offset`` of the shared buffer.
+TEXTURE = np.dtype([
+    ("offset", "<u4"), ("width", "<u4"), ("height", "<u4"), ("flags", "<u4"),
+])
+
+# --- Point light: 32 bytes --------------------------------------------------
+POINT_LIGHT = np.dtype([
+    ("position", "<f4", (3,)), ("pad0", "<f4"),
+    ("intensity", "<f4", (3,)), ("pad1", "<f4"),
+])
+
+# --- Camera: 64 bytes -------------------------------------------------------
+# Primary ray through NDC (x, y) in [-1, 1]^2 (y up): dir = forward + x*right + y*up,
+# with right/up already scaled by the field of view and aspect ratio.
+CAMERA = np.dtype([
+    ("eye", "<f4", (3,)), ("pad0", "<f4"),
+    ("forward", "<f4", (3,)), ("pad1", "<f4"),
+    ("right", "<f4", (3,)), ("pad2", "<f4"),
+    ("up", "<f4", (3,)), ("pad3", "<f4"),
+])
+
+# --- Wavefront records between kernel stages --------------------------------
+RAY = np.dtype([("org", "<f4", (3,)), ("tmin", "<f4"), ("dir", "<f4", (3,)), ("tmax", "<f4")])
+# prim = index into the leaf-ordered triangle array, 0xffffffff = miss.
+HIT = np.dtype([("t", "<f4"), ("b1", "<f4"), ("b2", "<f4"), ("prim", "<u4")])
+# Everything the lighting stage needs about a hit; produced by the surface stage.
+SURFACE = np.dtype([
+    ("p", "<f4", (3,)), ("offset", "<f4"),       # offset: shadow-ray origin offset along ng
+    ("ng", "<f4", (3,)), ("valid", "<u4"),       # ng faces the incoming ray
+    ("ns", "<f4", (3,)), ("shininess", "<f4"),   # ns faces the incoming ray
+    ("kd", "<f4", (3,)), ("pad0", "<f4"),
+    ("ks", "<f4", (3,)), ("pad1", "<f4"),
+])
+
+STRUCTS = {
+    "BVHNode": BVH_NODE, "Triangle": TRIANGLE, "Material": MATERIAL,
+    "TextureInfo": TEXTURE, "PointLight": POINT_LIGHT, "Camera": CAMERA,
+    "Ray": RAY, "Hit": HIT, "Surface": SURFACE,
+}
+
+_C_TYPES = {np.dtype("<f4"): "float", np.dtype("<u4"): "uint", np.dtype("<i4"): "int"}
+
+CONSTANTS = {
+    "LEAF_COUNT_BITS": LEAF_COUNT_BITS, "LEAF_COUNT_MASK": LEAF_COUNT_MASK,
+    "PRIM_TRIANGLE": PRIM_TRIANGLE, "TRI_HAS_NORMALS": TRI_HAS_NORMALS,
+    "TRI_HAS_UVS": TRI_HAS_UVS,
+}
+
+
+def _check(name, dt):
+    if dt.itemsize % 16:
+        raise AssertionError(f"{name}: size {dt.itemsize} is not a multiple of 16")
+
+
+def opencl_declarations() -> str:
+    """OpenCL C source declaring every struct of :data:`STRUCTS` and the constants."""
+    lines = ["/* Generated by texray.layout: do not edit. */",
+             "#ifndef TEXRAY_LAYOUT_H", "#define TEXRAY_LAYOUT_H"]
+    for k, v in CONSTANTS.items():
+        lines.append(f"#define {k} {v}u")
+    for name, dt in STRUCTS.items():
+        _check(name, dt)
+        lines.append("typedef struct {")
+        for field in dt.names:
+            base, shape = dt.fields[field][0].base, dt.fields[field][0].shape
+            dims = "".join(f"[{n}]" for n in shape)
+            lines.append(f"    {_C_TYPES[base]} {field}{dims};")
+        lines.append(f"}} {name};")
+    lines.append("#endif")
+    return "\n".join(lines) + "\n"

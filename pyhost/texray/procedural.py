@@ -1,0 +1,510 @@
+"""Procedural geometry and textures for texray (pure, vectorized numpy).
+
+Geometry
+--------
+Every generator returns a :class:`MeshData`. Conventions:
+
+* Units are arbitrary scene units; ``y`` is up.
+* Faces are counter-clockwise seen from outside, so the right-hand-rule face
+  normal ``(p1 - p0) x (p2 - p0)`` points outwards.
+* UVs follow OBJ/OpenGL: ``u`` runs along texture columns (left to right),
+  ``v = 0`` is the BOTTOM row of the image and ``v = 1`` the top row.
+* Seams are duplicated (``u = 0`` and ``u = 1`` are distinct vertices at the
+  same position), so UVs never wrap inside a triangle. Closed shapes become
+  watertight once coincident vertices are merged.
+* Every vertex is referenced by at least one face, and no face is degenerate.
+
+Textures
+--------
+Every texture is a ``float32`` array of shape ``(H, W, C)`` with values in
+``[0, 1]``; row 0 is the TOP row of the image (image order, as written to a
+file). Colours are display (sRGB-encoded) values; heights are plain data.
+``size`` is an ``int`` (square) or an ``(height, width)`` pair. Textures are
+deterministic given their arguments (including ``seed``) and, unless stated
+otherwise, tile seamlessly.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "MeshData", "grid", "lathe", "uv_sphere", "torus", "vase_profile", "vase",
+    "displaced_sphere", "bench_mesh",
+    "value_noise", "checker", "wood", "marble", "bricks", "bricks_height",
+    "tiles",
+]
+
+
+# =============================================================================
+# Geometry
+# =============================================================================
+
+@dataclass
+class MeshData:
+    """Indexed triangle mesh.
+
+    positions: (V, 3) float64; faces: (F, 3) int64, counter-clockwise seen from
+    outside; uvs: (V, 2) float64 or None; normals: (V, 3) float64 unit vectors
+    or None.
+    """
+    positions: np.ndarray
+    faces: np.ndarray
+    uvs: np.ndarray | None = None
+    normals: np.ndarray | None = None
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.positions)
+
+    @property
+    def n_triangles(self) -> int:
+        return len(self.faces)
+
+
+def _normalize(v):
+    """Unit vectors along the last axis (zero vectors stay zero)."""
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0)
+
+
+def _grid_faces(n_cols, n_rows):
+    """Faces of a (n_rows+1) x (n_cols+1) vertex grid, index = j*(n_cols+1)+i.
+
+    Returns ``(lower, upper)``, each (n_rows, n_cols, 3) int64: the triangles
+    (a, b, c) and (a, c, d) of quad (i, j) with a=(i,j), b=(i+1,j),
+    c=(i+1,j+1), d=(i,j+1); both are counter-clockwise in (i, j) space.
+    """
+    i = np.arange(n_cols)[None, :]
+    j = np.arange(n_rows)[:, None]
+    a = j * (n_cols + 1) + i
+    b, d = a + 1, a + (n_cols + 1)
+    c = d + 1
+    lower = np.stack(np.broadcast_arrays(a, b, c), axis=-1).astype(np.int64)
+    upper = np.stack(np.broadcast_arrays(a, c, d), axis=-1).astype(np.int64)
+    return lower, upper
+
+
+def _compact(positions, faces, uvs=None, normals=None):
+    """Drop vertices no face references; return a MeshData."""
+    used = np.zeros(len(positions), dtype=bool)
+    used[faces.ravel()] = True
+    remap = np.cumsum(used) - 1
+    pick = (lambda a: None if a is None else np.ascontiguousarray(a[used]))
+    return MeshData(positions[used], remap[faces].astype(np.int64),
+                    pick(uvs), pick(normals))
+
+
+def grid(nu, nv, size=(1.0, 1.0), uv_scale=1.0):
+    """Plane in XZ at y=0 facing +y, centred at the origin.
+
+    nu, nv: number of quads along x (u) and along -z (v). size: (size_x,
+    size_z). Seen from above (+y) with +x to the right, +v points towards -z,
+    so the texture appears upright. UVs span [0, uv_scale] (a scalar or a
+    (su, sv) pair; > 1 repeats the texture). 2*nu*nv triangles.
+    """
+    u = np.linspace(0.0, 1.0, nu + 1)
+    v = np.linspace(0.0, 1.0, nv + 1)
+    uu, vv = np.meshgrid(u, v)                      # (nv+1, nu+1), row = v
+    sx, sz = size
+    pos = np.stack([(uu - 0.5) * sx, np.zeros_like(uu), (0.5 - vv) * sz], -1)
+    uvs = np.stack([uu, vv], -1) * np.broadcast_to(uv_scale, (2,))
+    lower, upper = _grid_faces(nu, nv)
+    faces = np.concatenate([lower.reshape(-1, 3), upper.reshape(-1, 3)])
+    normals = np.broadcast_to([0.0, 1.0, 0.0], pos.shape).reshape(-1, 3).copy()
+    return MeshData(pos.reshape(-1, 3), faces, uvs.reshape(-1, 2), normals)
+
+
+def _profile_tangents(profile, s, closed):
+    """d(profile)/ds (unit) at each point; periodic differences if closed."""
+    if closed:
+        # central difference over the wrap: neighbours of the seam point are
+        # the second and second-to-last points (first == last point).
+        prev = np.concatenate([profile[-2:-1], profile[:-1]])
+        nxt = np.concatenate([profile[1:], profile[1:2]])
+        t = nxt - prev
+    else:
+        t = np.gradient(profile, s, axis=0)
+    return _normalize(t)
+
+
+def lathe(profile_rz, n_around, profile_normals=None):
+    """Surface of revolution about +y of a (radius, height) profile.
+
+    profile_rz: (N, 2) points (radius >= 0, height), N >= 2, consecutive
+    points distinct. Ordered so that the material lies to the right of the
+    direction of travel in the (radius, height) plane (e.g. bottom-to-top for
+    an outer wall) to get outward normals. A profile whose first and last
+    points coincide is treated as closed (a torus-like tube).
+    n_around: number of segments around the axis (seam column duplicated).
+    profile_normals: optional (N, 2) (radial, y) normals; by default they are
+    the profile's tangent rotated by -90 degrees (smooth shading).
+
+    UVs: u = angle / 2pi (u increases eastwards seen from outside, u = 0 on
+    +z), v = normalized arc length along the profile (0 at its first point).
+    Points on the axis (radius 0) at either end of the profile become a
+    triangle fan (no degenerate triangles), with u at the middle of each
+    column.
+    """
+    prof = np.asarray(profile_rz, dtype=np.float64)
+    n_prof = len(prof)
+    seg = np.linalg.norm(np.diff(prof, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    closed = bool(np.allclose(prof[0], prof[-1]))
+    if profile_normals is None:
+        t = _profile_tangents(prof, s, closed)
+        nrz = np.stack([t[:, 1], -t[:, 0]], -1)
+    else:
+        nrz = _normalize(np.asarray(profile_normals, dtype=np.float64))
+
+    u = np.linspace(0.0, 1.0, n_around + 1)
+    phi = 2.0 * np.pi * u
+    sin_p, cos_p = np.sin(phi)[None, :], np.cos(phi)[None, :]
+    r, h = prof[:, 0:1], prof[:, 1:2]
+    pos = np.stack(np.broadcast_arrays(r * sin_p, h, r * cos_p), -1)
+    nr, ny = nrz[:, 0:1], nrz[:, 1:2]
+    nrm = np.stack(np.broadcast_arrays(nr * sin_p, ny, nr * cos_p), -1)
+    uu = np.broadcast_to(u[None, :], (n_prof, n_around + 1)).copy()
+    vv = np.broadcast_to((s / s[-1])[:, None], uu.shape)
+
+    on_axis = np.abs(prof[:, 0]) < 1e-12
+    half = 0.5 / n_around
+    if on_axis[0]:       # bottom fan: triangles (a, c, d) use columns 0..n-1
+        uu[0] = u + half
+    if on_axis[-1]:      # top fan: triangles (a, b, c) use columns 1..n
+        uu[-1] = u - half
+
+    lower, upper = _grid_faces(n_around, n_prof - 1)
+    keep_lower = ~on_axis[:-1]      # (a, b, c) degenerate if row j on axis
+    keep_upper = ~on_axis[1:]       # (a, c, d) degenerate if row j+1 on axis
+    faces = np.concatenate([lower[keep_lower].reshape(-1, 3),
+                            upper[keep_upper].reshape(-1, 3)])
+    uvs = np.stack([uu, vv], -1).reshape(-1, 2)
+    return _compact(pos.reshape(-1, 3), faces, uvs, nrm.reshape(-1, 3))
+
+
+def _semicircle(n_lat):
+    """(n_lat+1, 2) unit semicircle profile from south to north pole."""
+    theta = np.linspace(np.pi, 0.0, n_lat + 1)         # polar angle from +y
+    prof = np.stack([np.sin(theta), np.cos(theta)], -1)
+    prof[[0, -1], 0] = 0.0
+    return prof
+
+
+def uv_sphere(n_lon, n_lat, radius=1.0):
+    """UV sphere centred at the origin, poles on the y axis.
+
+    n_lon: segments around (seam column duplicated at u = 0/1, on +z);
+    n_lat: segments from pole to pole (>= 2). v = 0 at the south pole (-y),
+    v = 1 at the north pole; the pole rows are triangle fans.
+    2 * n_lon * (n_lat - 1) triangles; exact radial normals.
+    """
+    prof = _semicircle(n_lat)
+    return lathe(prof * radius, n_lon, profile_normals=prof)
+
+
+def torus(n_major, n_minor, R=1.0, r=0.3):
+    """Torus about the y axis: tube radius r around a circle of radius R.
+
+    n_major: segments around y (u); n_minor: segments around the tube (v,
+    starting on the outer equator, going up first). Both seams duplicated.
+    2 * n_major * n_minor triangles; exact normals.
+    """
+    t = np.linspace(0.0, 2.0 * np.pi, n_minor + 1)
+    circle = np.stack([np.cos(t), np.sin(t)], -1)
+    circle[-1] = circle[0]
+    prof = circle * r + np.array([R, 0.0])
+    return lathe(prof, n_major, profile_normals=circle)
+
+
+def _chaikin(points, iterations):
+    """Chaikin corner cutting of an open polyline, endpoints kept."""
+    p = np.asarray(points, dtype=np.float64)
+    for _ in range(iterations):
+        a, b = p[:-1], p[1:]
+        q = np.stack([0.75 * a + 0.25 * b, 0.25 * a + 0.75 * b], 1)
+        p = np.concatenate([p[:1], q.reshape(-1, 2)[1:-1], p[-1:]])
+    return p
+
+
+def _resample_adaptive(points, n, turn_weight=0.15):
+    """n points along a polyline, evenly spaced in arc length + turn_weight *
+    accumulated turning angle (radians), so tight bends get more samples."""
+    d = np.diff(points, axis=0)
+    seg = np.linalg.norm(d, axis=1)
+    ang = np.arctan2(d[:, 1], d[:, 0])
+    turn = np.abs((np.diff(ang) + np.pi) % (2 * np.pi) - np.pi)
+    # charge half of each vertex's turn to the segments on either side
+    cost = seg + 0.5 * turn_weight * (np.r_[0.0, turn] + np.r_[turn, 0.0])
+    c = np.concatenate([[0.0], np.cumsum(cost)])
+    t = np.linspace(0.0, c[-1], n)
+    return np.stack([np.interp(t, c, points[:, k]) for k in range(2)], -1)
+
+
+def vase_profile(n_points=48, height=1.0, wall=0.025):
+    """(n_points, 2) (radius, height) profile of a closed, thick-walled vase.
+
+    Starts at the centre of the base (on the axis), runs out along the base,
+    up the curvy outer wall, over a rounded lip, down the inner wall and ends
+    at the centre of the inner floor: revolved, it is a watertight solid.
+    """
+    # outer wall control polygon: foot, belly, neck, flared lip (unit height)
+    outer = np.array([
+        [0.00, 0.000], [0.13, 0.000], [0.16, 0.004], [0.17, 0.025],
+        [0.15, 0.055], [0.16, 0.080],
+        [0.26, 0.160], [0.33, 0.300], [0.32, 0.440], [0.24, 0.580],
+        [0.14, 0.700], [0.115, 0.800], [0.13, 0.900], [0.19, 0.985],
+    ])
+    lip = np.array([[0.205, 1.000], [0.195, 1.012], [0.178, 1.002]])
+    inner = outer[::-1].copy()
+    inner[:, 0] -= wall
+    inner = inner[1:-5]                               # stop above the foot
+    floor_h = 0.08 + wall
+    inner = np.concatenate([inner[:-1], [[0.12, floor_h + 0.02],
+                                         [0.08, floor_h], [0.0, floor_h]]])
+    ctrl = np.concatenate([outer, lip, inner]) * [1.0, height]
+    return _resample_adaptive(_chaikin(ctrl, 5), n_points)
+
+
+def vase(n_around=48, n_profile=36):
+    """Closed thick-walled vase, 1 unit tall, standing on y = 0.
+
+    u runs around, v along the profile arc length (0 at the base centre,
+    ~0.5 at the lip, 1 at the inner floor). Smooth normals.
+    2 * n_around * (n_profile - 2) triangles (3264 by default).
+    """
+    return lathe(vase_profile(n_profile), n_around)
+
+
+def displaced_sphere(n_lon, n_lat, amplitude=0.05, n_waves=12, seed=0):
+    """UV sphere of radius 1 + amplitude * bumps(direction).
+
+    bumps(d) = sum of n_waves plane waves sin(k_i . d + phase_i) with random
+    |k_i| in [4, 16], scaled to an RMS of 1 (so amplitude is the RMS radius
+    offset): smooth everywhere (poles included), and the normals are exact:
+    n ~ r d - grad_S r, with grad_S the tangential gradient on the unit
+    sphere. Triangle count and UVs as :func:`uv_sphere`.
+    """
+    base = uv_sphere(n_lon, n_lat)
+    d = base.normals                                   # unit directions
+    rng = np.random.default_rng(seed)
+    k = _normalize(rng.normal(size=(n_waves, 3))) * rng.uniform(4, 16, (n_waves, 1))
+    phase = rng.uniform(0, 2 * np.pi, n_waves)
+    arg = d @ k.T + phase                              # (V, n_waves)
+    scale = amplitude / np.sqrt(0.5 * n_waves)
+    r = 1.0 + scale * np.sin(arg).sum(1)
+    grad = scale * (np.cos(arg) @ k)                   # (V, 3) 3-D gradient
+    grad_s = grad - np.sum(grad * d, 1, keepdims=True) * d
+    normals = _normalize(r[:, None] * d - grad_s)
+    return MeshData(d * r[:, None], base.faces, base.uvs, normals)
+
+
+def bench_mesh(target_triangles=1_000_000, amplitude=0.05, seed=0):
+    """Bumpy sphere with about ``target_triangles`` triangles (within 1 % for
+    targets >= ~2000), for benchmarks: :func:`displaced_sphere` with
+    n_lon ~ 2 (n_lat - 1)."""
+    m = max(1, int(round(np.sqrt(target_triangles / 4.0))))   # n_lat - 1
+    n_lon = max(3, int(round(target_triangles / (2.0 * m))))
+    return displaced_sphere(n_lon, m + 1, amplitude=amplitude, seed=seed)
+
+
+# =============================================================================
+# Textures
+# =============================================================================
+
+def _hw(size):
+    """(height, width) from an int or a (height, width) pair."""
+    if np.ndim(size) == 0:
+        return int(size), int(size)
+    h, w = size
+    return int(h), int(w)
+
+
+def _pixel_coords(h, w):
+    """Pixel-centre image coordinates (x, y) in [0, 1), y = 0 at the top;
+    shapes (1, w) and (h, 1)."""
+    return (np.arange(w)[None, :] + 0.5) / w, (np.arange(h)[:, None] + 0.5) / h
+
+
+def _smooth(t):
+    """Quintic fade 6t^5 - 15t^4 + 10t^3 (C2 value-noise interpolation)."""
+    return t * t * t * (t * (6.0 * t - 15.0) + 10.0)
+
+
+def _smoothstep(e0, e1, x):
+    t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def _lattice(h, w, cy, cx, rng):
+    """One octave of tileable value noise: a (cy, cx) periodic lattice of
+    uniform random values, quintic-interpolated to (h, w), in [0, 1]."""
+    lat = rng.random((cy, cx))
+
+    def axis(n, c):
+        x = np.arange(n) * (c / n)
+        i0 = np.floor(x).astype(np.int64)
+        return i0 % c, (i0 + 1) % c, _smooth(x - i0)
+
+    y0, y1, wy = axis(h, cy)
+    x0, x1, wx = axis(w, cx)
+    rows = lat[y0] * (1 - wy)[:, None] + lat[y1] * wy[:, None]    # (h, cx)
+    return rows[:, x0] * (1 - wx) + rows[:, x1] * wx
+
+
+def _fbm(h, w, cells, octaves, seed, persistence=0.5):
+    """Fractal sum of tileable value noise, (h, w) float64 in [0, 1].
+
+    cells: lattice cells (cy, cx) of the first octave over the whole image
+    (different values stretch the noise); each octave doubles them.
+    """
+    rng = np.random.default_rng(seed)
+    cy, cx = (cells, cells) if np.ndim(cells) == 0 else cells
+    total, norm = np.zeros((h, w)), 0.0
+    for o in range(octaves):
+        amp = persistence ** o
+        total += amp * _lattice(h, w, cy << o, cx << o, rng)
+        norm += amp
+    return total / norm
+
+
+def _as_texture(*channels):
+    """Stack (h, w) channels into a clipped float32 (h, w, C) texture."""
+    return np.clip(np.stack(channels, -1), 0.0, 1.0).astype(np.float32)
+
+
+def _mix(c0, c1, t):
+    """Blend two RGB colours by t (h, w) -> (h, w, 3)."""
+    c0, c1 = np.asarray(c0, np.float64), np.asarray(c1, np.float64)
+    return c0 + (c1 - c0) * np.asarray(t)[..., None]
+
+
+def value_noise(size, octaves=5, seed=0, cells=4, persistence=0.5):
+    """Tileable fractal value noise, (H, W, 1) float32 in [0, 1].
+
+    cells: lattice cells across the image for the first octave (int or
+    (cy, cx)); octave o has cells * 2**o and weight persistence**o. The noise
+    is periodic with the image size in both directions (seamless tiling).
+    """
+    h, w = _hw(size)
+    return _as_texture(_fbm(h, w, cells, octaves, seed, persistence))
+
+
+def checker(size=512, n_checks=8, c0=(0.9, 0.9, 0.85), c1=(0.15, 0.2, 0.3)):
+    """Checkerboard, (H, W, 3) float32: n_checks squares (int or (ny, nx))
+    across the image; the square at UV (0, 0) (bottom-left) has colour c0."""
+    h, w = _hw(size)
+    ny, nx = (n_checks, n_checks) if np.ndim(n_checks) == 0 else n_checks
+    x, y = _pixel_coords(h, w)
+    parity = (np.floor(x * nx) + np.floor((1.0 - y) * ny)) % 2
+    rgb = _mix(c0, c1, np.broadcast_to(parity, (h, w)))
+    return _as_texture(*np.moveaxis(rgb, -1, 0))
+
+
+def wood(size=512, seed=0, n_rings=18, light=(0.80, 0.57, 0.34),
+         dark=(0.42, 0.22, 0.09)):
+    """Flat-sawn plank, (H, W, 3) float32; grain runs vertically (along v).
+
+    The plank cuts a log whose axis runs along the image's columns: the
+    distance to the axis, sqrt(across^2 + depth^2), with across ~
+    sin(pi (x - 1/2)) (periodic) and a noisy depth, gives the growth rings
+    (n_rings per unit of that distance; light early wood, dark late wood) as
+    nested arches. Fine fibres and pores come from noise stretched along the
+    grain. Tileable.
+    """
+    h, w = _hw(size)
+    x, y = _pixel_coords(h, w)
+    across = 0.8 * np.sin(np.pi * (x - 0.5))
+    depth = (0.33 + 0.4 * (_fbm(h, w, (2, 1), 3, seed) - 0.5)
+             + 0.06 * np.sin(2 * np.pi * y))
+    warp = _fbm(h, w, (3, 4), 4, seed + 1) - 0.5
+    phase = n_rings * np.sqrt(across ** 2 + depth ** 2) + 0.35 * warp
+    t = phase - np.floor(phase)
+    late = _smoothstep(0.35, 0.93, t) ** 2 * (1.0 - _smoothstep(0.93, 1.0, t))
+    fibres = _fbm(h, w, (3, 128), 4, seed + 2)
+    pores = _smoothstep(0.62, 0.8, _fbm(h, w, (16, 256), 2, seed + 3))
+    tone = 0.8 * late + 0.35 * (fibres - 0.5) + 0.25 * pores * (0.3 + 0.7 * late)
+    rgb = _mix(light, dark, np.clip(tone, 0.0, 1.0))
+    rgb *= (0.88 + 0.24 * _fbm(h, w, (2, 3), 4, seed + 4))[..., None]
+    return _as_texture(*np.moveaxis(rgb, -1, 0))
+
+
+def marble(size=512, seed=0, n_veins=3, base=(0.93, 0.92, 0.9),
+           vein=(0.3, 0.32, 0.36)):
+    """White marble with dark turbulent veins, (H, W, 3) float32; tileable."""
+    h, w = _hw(size)
+    x, y = _pixel_coords(h, w)
+    turb = _fbm(h, w, 3, 6, seed, 0.55)
+    s = 1.0 - np.abs(np.sin(np.pi * (n_veins * (x + y) + 2.0 * turb)))
+    veins = 0.7 * s ** 12 + 0.25 * s ** 3
+    cloud = _fbm(h, w, 4, 5, seed + 1)
+    rgb = _mix(base, vein, veins + 0.12 * cloud)
+    return _as_texture(*np.moveaxis(rgb, -1, 0))
+
+
+def _brick_layout(h, w, n_rows, n_cols, offset):
+    """Per-pixel brick id (h, w) and distance to the brick's edge (h, w) in
+    units of brick height. Row r of bricks is shifted by offset * (r % 2)
+    brick widths; ids wrap so the layout tiles when n_rows is even."""
+    x, y = _pixel_coords(h, w)
+    ys = y * n_rows
+    row = np.floor(ys).astype(np.int64)
+    fy = ys - row
+    xs = x * n_cols + offset * (row % 2)
+    col = np.floor(xs).astype(np.int64)
+    fx = xs - col
+    aspect = (w / n_cols) / (h / n_rows)            # brick width / height
+    dist = np.minimum(np.minimum(fx, 1 - fx) * aspect, np.minimum(fy, 1 - fy))
+    return row * n_cols + col % n_cols, dist
+
+
+def _brick_profile(dist, mortar, bevel):
+    """0 in the mortar, rising smoothly to 1 over ``bevel`` (brick heights)."""
+    return _smoothstep(0.5 * mortar, 0.5 * mortar + bevel, dist)
+
+
+def bricks(size=512, n_rows=8, n_cols=4, mortar=0.12, bevel=0.1, seed=0,
+           offset=0.5, brick=(0.55, 0.27, 0.2), mortar_color=(0.7, 0.68, 0.64),
+           variation=0.25):
+    """Running-bond brick wall, (H, W, 3) float32.
+
+    n_rows x n_cols bricks across the image (n_rows even for seamless
+    tiling); mortar: joint width and bevel: edge rounding, both in brick
+    heights; offset: shift of odd rows in brick widths; variation: random
+    per-brick brightness/hue spread.
+    """
+    h, w = _hw(size)
+    ids, dist = _brick_layout(h, w, n_rows, n_cols, offset)
+    rng = np.random.default_rng(seed)
+    jitter = rng.uniform(-1, 1, (n_rows * n_cols, 3)) * [1.0, 0.6, 0.5]
+    tint = 1.0 + variation * (jitter[:, :1] + 0.3 * jitter)      # per brick
+    grit = _fbm(h, w, 16, 5, seed + 1, 0.65)[..., None]
+    face = np.asarray(brick) * tint[ids] * (0.8 + 0.4 * grit)
+    edge = _brick_profile(dist, mortar, bevel)[..., None]
+    face *= 0.75 + 0.25 * edge                                    # darker bevel
+    joint = np.asarray(mortar_color) * (0.85 + 0.3 * grit)
+    mask = _brick_profile(dist, mortar, 0.02)[..., None]
+    rgb = joint + (face - joint) * mask
+    return _as_texture(*np.moveaxis(rgb, -1, 0))
+
+
+def bricks_height(size=512, n_rows=8, n_cols=4, mortar=0.12, bevel=0.1,
+                  seed=0, offset=0.5, roughness=0.08):
+    """Height map matching :func:`bricks` (same layout arguments), (H, W, 1)
+    float32: 0 in the mortar, 1 on brick faces with a smooth bevel; the
+    faces carry noise of relative depth ``roughness``."""
+    h, w = _hw(size)
+    _, dist = _brick_layout(h, w, n_rows, n_cols, offset)
+    grit = _fbm(h, w, 16, 5, seed + 1, 0.65)
+    height = _brick_profile(dist, mortar, bevel) * (1.0 - roughness * grit)
+    return _as_texture(height)
+
+
+def tiles(size=512, n=6, grout=0.06, bevel=0.05, seed=0,
+          tile=(0.25, 0.45, 0.6), grout_color=(0.85, 0.84, 0.8),
+          variation=0.2):
+    """Square glazed tiles, n x n across the image, (H, W, 3) float32: a
+    :func:`bricks` layout without offset. Tileable."""
+    return bricks(size, n, n, mortar=grout, bevel=bevel, seed=seed, offset=0.0,
+                  brick=tile, mortar_color=grout_color, variation=variation)

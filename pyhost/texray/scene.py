@@ -1,0 +1,297 @@
+"""The scene description users build: camera, lights, textures, materials, meshes.
+
+Units are arbitrary but consistent (world units); angles are degrees; colours
+and intensities are linear RGB. Validation happens here, when an object is
+made or loaded, so bad input fails early with the file, field and value.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .colour import srgb_to_linear
+from .errors import SceneError
+from .transform import Transform, _vec3, apply_normals, apply_points
+
+
+def _rgb(value, field, where="", nonneg=True):
+    v = _vec3(value, field, where)
+    if nonneg and np.any(v < 0):
+        raise SceneError(f"{where}{field}: values must be >= 0, got {value!r}")
+    return v
+
+
+def _number(value, field, where="", lo=None, hi=None, lo_open=False):
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise SceneError(f"{where}{field}: expected a number, got {value!r}")
+    v = float(value)
+    if not np.isfinite(v) or (lo is not None and (v <= lo if lo_open else v < lo)) or (hi is not None and v > hi):
+        rng = f"{'(' if lo_open else '['}{lo}, {hi if hi is not None else 'inf'}]"
+        raise SceneError(f"{where}{field}: {value!r} is outside {rng}")
+    return v
+
+
+@dataclass
+class Camera:
+    """Pinhole camera at ``eye`` looking at ``look_at``; ``fov_y`` is the vertical field of view in degrees."""
+    eye: tuple = (0.0, 0.0, 5.0)
+    look_at: tuple = (0.0, 0.0, 0.0)
+    up: tuple = (0.0, 1.0, 0.0)
+    fov_y: float = 40.0
+
+    def basis(self, aspect: float, where="camera."):
+        """(eye, forward, right, up) with right/up scaled so that NDC (+-1, +-1) hits the image corners."""
+        eye = _vec3(self.eye, "eye", where)
+        look = _vec3(self.look_at, "look_at", where)
+        up = _vec3(self.up, "up", where)
+        fov = _number(self.fov_y, "fov_y", where, 0.0, 179.0, lo_open=True)
+        fwd = look - eye
+        if np.linalg.norm(fwd) == 0:
+            raise SceneError(f"{where}look_at: equals eye {tuple(eye)}; the camera has no direction")
+        fwd /= np.linalg.norm(fwd)
+        right = np.cross(fwd, up)
+        if np.linalg.norm(right) < 1e-9 * np.linalg.norm(up):
+            raise SceneError(f"{where}up: {tuple(up)} is parallel to the viewing direction {tuple(fwd)}")
+        right /= np.linalg.norm(right)
+        true_up = np.cross(right, fwd)
+        h = np.tan(np.radians(fov) / 2)
+        return eye, fwd, right * h * aspect, true_up * h
+
+
+@dataclass
+class PointLight:
+    """Point light; irradiance falls off as intensity / d^2 (the lecture's I_i / d_i^2)."""
+    position: tuple
+    intensity: tuple = (10.0, 10.0, 10.0)
+
+    def validate(self, where="light."):
+        return _vec3(self.position, "position", where), _rgb(self.intensity, "intensity", where)
+
+
+class Texture:
+    """An image used by a material, stored linear float32 RGBA (H, W, 4), row 0 = top.
+
+    ``colorspace``: ``"srgb"`` decodes 8-bit-style display values to linear
+    (colour roles), ``"linear"`` keeps the values (data roles), ``"auto"``
+    decodes unless the file says it is linear (EXR, HDR, float TIFF).
+    """
+
+    def __init__(self, rgba: np.ndarray, name: str = "<array>"):
+        self.rgba = rgba
+        self.name = name
+
+    @property
+    def shape(self):
+        return self.rgba.shape[:2]
+
+    @classmethod
+    def load(cls, path, colorspace="auto", field="texture"):
+        from .imageio import read_image
+        pixels, file_cs = read_image(path, field)
+        if colorspace not in ("auto", "srgb", "linear"):
+            raise SceneError(f"{field}.colorspace: expected 'auto', 'srgb' or 'linear', got {colorspace!r}")
+        if colorspace == "auto":
+            linear_file = Path(path).suffix.lower() in (".exr", ".hdr", ".pfm") or "linear" in file_cs.lower()
+            colorspace = "linear" if linear_file else "srgb"
+        return cls.from_array(pixels, colorspace=colorspace, name=str(path), field=field)
+
+    @classmethod
+    def from_array(cls, array, colorspace="linear", name="<array>", field="texture"):
+        """A texture from (H, W) or (H, W, C) numbers, C in 1..4; row 0 is the top row."""
+        a = np.asarray(array, dtype=np.float32)
+        if a.ndim == 2:
+            a = a[:, :, None]
+        if a.ndim != 3 or a.shape[2] not in (1, 2, 3, 4) or a.shape[0] < 1 or a.shape[1] < 1:
+            raise SceneError(f"{field}: {name}: expected an (H, W) or (H, W, 1..4) image, got shape {np.shape(array)}")
+        if not np.all(np.isfinite(a)):
+            bad = np.argwhere(~np.isfinite(a))[0]
+            raise SceneError(f"{field}: {name}: non-finite texel at row {bad[0]}, column {bad[1]}")
+        c = a.shape[2]
+        rgb = {1: a[:, :, [0, 0, 0]], 2: a[:, :, [0, 0, 0]], 3: a, 4: a[:, :, :3]}[c]
+        alpha = a[:, :, 3:4] if c == 4 else (a[:, :, 1:2] if c == 2 else np.ones_like(a[:, :, :1]))
+        if colorspace == "srgb":
+            rgb = srgb_to_linear(rgb)
+        elif colorspace != "linear":
+            raise SceneError(f"{field}.colorspace: expected 'srgb' or 'linear', got {colorspace!r}")
+        return cls(np.ascontiguousarray(np.concatenate([rgb, alpha], axis=2), dtype=np.float32), name)
+
+    def __repr__(self):
+        return f"Texture({self.name!r}, {self.shape[1]}x{self.shape[0]})"
+
+
+@dataclass
+class Material:
+    """The lecture's local-illumination constants.
+
+    diffuse: kd, an RGB colour or a :class:`Texture` (looked up bilinearly,
+    repeating); ``tint`` multiplies it. specular: ks, a number or RGB.
+    shininess: the exponent n of (R.V)^n.
+    """
+    diffuse: object = (0.8, 0.8, 0.8)
+    specular: object = 0.0
+    shininess: float = 32.0
+    tint: tuple = (1.0, 1.0, 1.0)
+
+    def validate(self, where="material."):
+        if isinstance(self.diffuse, Texture):
+            kd = _rgb(self.tint, "tint", where)
+        else:
+            kd = _rgb(self.diffuse, "diffuse", where) * _rgb(self.tint, "tint", where)
+        ks = _rgb(self.specular, "specular", where)
+        n = _number(self.shininess, "shininess", where, 0.0)
+        return kd, ks, n
+
+    @property
+    def textures(self):
+        return [self.diffuse] if isinstance(self.diffuse, Texture) else []
+
+
+@dataclass
+class Mesh:
+    """A triangle mesh in world space after its ``transform``.
+
+    positions (V, 3), faces (F, 3) vertex indices, optional per-vertex uvs
+    (V, 2) and normals (V, 3). Validated on creation: non-finite coordinates,
+    out-of-range indices and a textured material without uvs raise
+    SceneError; zero-area triangles are kept out of the render with a warning
+    (they can never be hit, so no pixel depends on them).
+    """
+    positions: np.ndarray
+    faces: np.ndarray
+    uvs: np.ndarray | None = None
+    normals: np.ndarray | None = None
+    material: Material = field(default_factory=Material)
+    transform: Transform | None = None
+    name: str = "<mesh>"
+
+    def __post_init__(self):
+        self._validate()
+
+    @classmethod
+    def load(cls, path, material=None, transform=None):
+        """Load OBJ, PLY, GLB/GLTF, OFF or STL through trimesh (unprocessed: nothing is silently merged or dropped)."""
+        import trimesh
+        path = Path(path)
+        if not path.is_file():
+            raise SceneError(f"mesh: file not found: {path}")
+        try:
+            loaded = trimesh.load(str(path), process=False)
+        except Exception as e:   # trimesh raises many kinds of errors for unreadable files
+            raise SceneError(f"mesh: cannot read {path}: {type(e).__name__}: {e}") from None
+        parts = _flatten(loaded)
+        if not parts or sum(len(f) for _, f, _, _ in parts) == 0:
+            raise SceneError(f"mesh: {path} contains no triangles")
+        offsets = np.cumsum([0] + [len(p) for p, _, _, _ in parts])
+        positions = np.concatenate([p for p, _, _, _ in parts])
+        faces = np.concatenate([f + o for (_, f, _, _), o in zip(parts, offsets)])
+        uvs = None if any(u is None for _, _, u, _ in parts) else np.concatenate([u for _, _, u, _ in parts])
+        normals = None if any(n is None for _, _, _, n in parts) else np.concatenate([n for _, _, _, n in parts])
+        return cls(positions, faces, uvs, normals,
+                   material if material is not None else Material(), transform, str(path))
+
+    def _validate(self):
+        where = f"{self.name}: "
+        p = np.asarray(self.positions, dtype=np.float64)
+        f = np.asarray(self.faces)
+        if p.ndim != 2 or p.shape[1] != 3:
+            raise SceneError(f"{where}positions: expected shape (V, 3), got {p.shape}")
+        if f.ndim != 2 or f.shape[1] != 3 or not np.issubdtype(f.dtype, np.integer):
+            raise SceneError(f"{where}faces: expected integer shape (F, 3), got {f.dtype} {f.shape}")
+        bad = ~np.all(np.isfinite(p), axis=1)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise SceneError(f"{where}positions: vertex {i} is {tuple(p[i])} ({int(bad.sum())} non-finite vertices)")
+        if f.size and (f.min() < 0 or f.max() >= len(p)):
+            i = int(np.flatnonzero((f < 0).any(1) | (f >= len(p)).any(1))[0])
+            raise SceneError(f"{where}faces: face {i} = {tuple(f[i])} indexes outside 0..{len(p) - 1}")
+        for name, arr, width in (("uvs", self.uvs, 2), ("normals", self.normals, 3)):
+            if arr is None:
+                continue
+            a = np.asarray(arr, dtype=np.float64)
+            if a.shape != (len(p), width):
+                raise SceneError(f"{where}{name}: expected shape ({len(p)}, {width}), got {a.shape}")
+            bad = ~np.all(np.isfinite(a), axis=1)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise SceneError(f"{where}{name}: vertex {i} is {tuple(a[i])}")
+        if not isinstance(self.material, Material):
+            raise SceneError(f"{where}material: expected a texray.Material, got {type(self.material).__name__}")
+        self.material.validate(f"{where}material.")
+        if self.material.textures and self.uvs is None:
+            raise SceneError(f"{where}uvs: the material has a texture ({self.material.textures[0].name}) "
+                             "but the mesh has no texture coordinates")
+        self.positions, self.faces = p, f.astype(np.int64)
+
+    def world(self):
+        """(positions, normals) in world space, float64."""
+        if self.transform is None:
+            return self.positions, None if self.normals is None else np.asarray(self.normals, np.float64)
+        m = self.transform.matrix(f"{self.name}: transform.")
+        n = None if self.normals is None else apply_normals(m, np.asarray(self.normals, np.float64))
+        return apply_points(m, self.positions), n
+
+
+def _flatten(loaded):
+    """[(positions, faces, uvs | None, normals | None)] of every triangle geometry in a
+    trimesh load result, with scene-graph transforms applied; nothing is merged or dropped.
+    Normals are the file's own (trimesh keeps them in its cache when the file has them)."""
+    import trimesh
+    if isinstance(loaded, trimesh.Trimesh):
+        items = [(np.eye(4), loaded)]
+    elif isinstance(loaded, trimesh.Scene):
+        items = []
+        for node in loaded.graph.nodes_geometry:
+            m, gname = loaded.graph[node]
+            g = loaded.geometry.get(gname)
+            if isinstance(g, trimesh.Trimesh):
+                items.append((np.asarray(m, dtype=np.float64), g))
+    else:
+        return []
+    out = []
+    for m, g in items:
+        p = apply_points(m, np.asarray(g.vertices, dtype=np.float64))
+        uv = getattr(g.visual, "uv", None)
+        n = g._cache.cache.get("vertex_normals") if hasattr(g, "_cache") else None
+        n = None if n is None or len(n) != len(p) else apply_normals(m, np.asarray(n, dtype=np.float64))
+        out.append((p, np.asarray(g.faces, dtype=np.int64),
+                    None if uv is None or len(uv) != len(p) else np.asarray(uv, dtype=np.float64), n))
+    return out
+
+
+@dataclass
+class Scene:
+    """A camera, point lights, an ambient term and a list of objects."""
+    camera: Camera = field(default_factory=Camera)
+    lights: list = field(default_factory=list)
+    ambient: tuple = (0.0, 0.0, 0.0)
+    background: tuple = (0.0, 0.0, 0.0)
+    objects: list = field(default_factory=list)
+
+    def add(self, obj):
+        if not isinstance(obj, Mesh):
+            raise SceneError(f"scene.add: expected a texray.Mesh, got {type(obj).__name__}")
+        self.objects.append(obj)
+        return obj
+
+    @classmethod
+    def load(cls, path):
+        """Read a TOML scene file (see the README's "Scene files")."""
+        from .scenefile import load_scene
+        return load_scene(path)
+
+
+def degenerate_faces(positions, faces):
+    """Boolean mask of zero-area triangles (exactly collinear in float64)."""
+    a, b, c = positions[faces[:, 0]], positions[faces[:, 1]], positions[faces[:, 2]]
+    return ~np.any(np.cross(b - a, c - a) != 0, axis=1)
+
+
+def warn_degenerate(name, mask):
+    n = int(mask.sum())
+    if n:
+        first = np.flatnonzero(mask)[:5].tolist()
+        warnings.warn(f"{name}: {n} zero-area triangle(s) skipped (faces {first}{'...' if n > 5 else ''})",
+                      stacklevel=3)

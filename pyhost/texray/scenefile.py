@@ -1,0 +1,125 @@
+"""TOML scene files. The format is documented in the README ("Scene files").
+
+Paths inside a scene file are relative to the file. Every table accepts only
+the keys listed in ``_SCHEMA``; an unknown key, a wrong type or a bad value
+raises SceneError naming the file, the field and the value.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+try:
+    import tomllib
+except ModuleNotFoundError:        # Python < 3.11
+    import tomli as tomllib
+
+from .errors import SceneError
+from .scene import Camera, Material, Mesh, PointLight, Scene, Texture
+from .transform import Transform
+
+_NUM = (int, float)
+_VEC = (list,)
+_SCHEMA = {
+    "": {"camera": dict, "scene": dict, "render": dict, "lights": list, "textures": dict,
+         "materials": dict, "objects": list},
+    "camera": {"eye": _VEC, "look_at": _VEC, "up": _VEC, "fov_y": _NUM},
+    "scene": {"ambient": _VEC, "background": _VEC},
+    "render": {"width": int, "height": int, "spp": int, "seed": int},
+    "lights": {"position": _VEC, "intensity": _VEC},
+    "textures": {"file": str, "colorspace": str},
+    "materials": {"diffuse": (str, list), "tint": _VEC, "specular": (int, float, list), "shininess": _NUM},
+    "objects": {"mesh": str, "material": str, "translate": _VEC, "rotate": _VEC, "scale": (int, float, list)},
+}
+_REQUIRED = {"lights": ("position",), "textures": ("file",), "objects": ("mesh",)}
+
+
+def _check_table(table, kind, where):
+    if not isinstance(table, dict):
+        raise SceneError(f"{where}: expected a table, got {type(table).__name__} {table!r}")
+    allowed = _SCHEMA[kind]
+    for key, value in table.items():
+        if key not in allowed:
+            raise SceneError(f"{where}.{key}: unknown key (allowed: {', '.join(sorted(allowed))})" if where
+                             else f"{key}: unknown top-level key (allowed: {', '.join(sorted(allowed))})")
+        types = allowed[key] if isinstance(allowed[key], tuple) else (allowed[key],)
+        if isinstance(value, bool) or not isinstance(value, types):
+            names = " or ".join("array" if t is list else "table" if t is dict else t.__name__ for t in types)
+            raise SceneError(f"{where + '.' if where else ''}{key}: expected {names}, got {value!r}")
+    for key in _REQUIRED.get(kind, ()):
+        if key not in table:
+            raise SceneError(f"{where}: missing required key {key!r}")
+
+
+def load_scene(path) -> Scene:
+    """Parse a scene file into a :class:`Scene`; ``scene.render_settings`` holds its [render] table."""
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError(f"scene file not found: {path}")
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise SceneError(f"{path}: not valid TOML: {e}") from None
+    base = path.parent
+    try:
+        return _build(doc, base, path)
+    except SceneError as e:
+        msg = str(e)
+        raise SceneError(msg if msg.startswith(str(path)) else f"{path}: {msg}") from None
+
+
+def _build(doc, base, path):
+    _check_table(doc, "", "")
+    cam = doc.get("camera", {})
+    _check_table(cam, "camera", "camera")
+    sc = doc.get("scene", {})
+    _check_table(sc, "scene", "scene")
+    settings = doc.get("render", {})
+    _check_table(settings, "render", "render")
+
+    lights = []
+    for i, lt in enumerate(doc.get("lights", [])):
+        _check_table(lt, "lights", f"lights[{i}]")
+        light = PointLight(**lt)
+        light.validate(f"lights[{i}].")
+        lights.append(light)
+
+    textures = {}
+    for name, tt in doc.get("textures", {}).items():
+        _check_table(tt, "textures", f"textures.{name}")
+        textures[name] = Texture.load(base / tt["file"], colorspace=tt.get("colorspace", "auto"),
+                                      field=f"textures.{name}.file")
+
+    materials = {}
+    for name, mt in doc.get("materials", {}).items():
+        where = f"materials.{name}"
+        _check_table(mt, "materials", where)
+        kw = dict(mt)
+        if isinstance(kw.get("diffuse"), str):
+            if kw["diffuse"] not in textures:
+                raise SceneError(f"{where}.diffuse: no texture named {kw['diffuse']!r} "
+                                 f"(defined: {', '.join(textures) or 'none'})")
+            kw["diffuse"] = textures[kw["diffuse"]]
+        m = Material(**kw)
+        m.validate(where + ".")
+        materials[name] = m
+
+    scene = Scene(camera=Camera(**cam), lights=lights, **sc)
+    eye_where = "camera."
+    scene.camera.basis(1.0, eye_where)
+    for i, ob in enumerate(doc.get("objects", [])):
+        where = f"objects[{i}]"
+        _check_table(ob, "objects", where)
+        mat_name = ob.get("material")
+        if mat_name is not None and mat_name not in materials:
+            raise SceneError(f"{where}.material: no material named {mat_name!r} "
+                             f"(defined: {', '.join(materials) or 'none'})")
+        tf = Transform(**{k: ob[k] for k in ("translate", "rotate", "scale") if k in ob})
+        tf.matrix(where + ".")
+        mesh_path = base / ob["mesh"]
+        try:
+            mesh = Mesh.load(mesh_path, material=materials.get(mat_name, Material()), transform=tf)
+        except SceneError as e:
+            raise SceneError(f"{where}.mesh: {e}") from None
+        scene.add(mesh)
+    scene.render_settings = dict(settings)
+    return scene

@@ -1,0 +1,68 @@
+"""Trace arbitrary rays against a scene's BVH: the intersect stage on its own.
+
+For tests (device results against float64 references) and the benchmark
+(closest-hit and any-hit throughput on given rays).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pyopencl as cl
+
+from . import layout
+from .compile import CompiledScene, compile_scene
+from .device import runtime
+from .features import compile_options
+from .render import _Uploaded
+
+
+@dataclass
+class Hits:
+    t: np.ndarray       # float32, tmax for a miss
+    b1: np.ndarray
+    b2: np.ndarray
+    prim: np.ndarray    # int64 index into CompiledScene.triangles, -1 for a miss
+    seconds: float      # device time of the kernel (profiling events)
+
+
+class Tracer:
+    """A compiled scene uploaded to one device, ready to trace batches of rays."""
+
+    def __init__(self, scene_or_compiled, device=None):
+        cs = scene_or_compiled if isinstance(scene_or_compiled, CompiledScene) else compile_scene(scene_or_compiled)
+        self.compiled = cs
+        self.rt = runtime(device)
+        self.program = self.rt.program(compile_options(cs.features))
+        self.up = _Uploaded(self.rt.context, cs)
+        self._k_closest = cl.Kernel(self.program, "intersect")
+        self._k_any = cl.Kernel(self.program, "occluded")
+
+    def _rays(self, org, dirs, tmin, tmax):
+        n = len(dirs)
+        r = np.zeros(n, layout.RAY)
+        r["org"], r["dir"] = np.broadcast_to(org, (n, 3)), dirs
+        r["tmin"], r["tmax"] = tmin, tmax
+        mf = cl.mem_flags
+        return n, cl.Buffer(self.rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=r)
+
+    def closest(self, org, dirs, tmin=0.0, tmax=np.inf) -> Hits:
+        n, rays = self._rays(org, dirs, tmin, tmax)
+        out = np.zeros(n, layout.HIT)
+        hits = cl.Buffer(self.rt.context, cl.mem_flags.WRITE_ONLY, max(out.nbytes, 16))
+        ev = self._k_closest(self.rt.queue, (n,), None, rays, hits, np.uint32(n),
+                                    self.up.nodes, self.up.nnodes, self.up.tris)
+        cl.enqueue_copy(self.rt.queue, out, hits, wait_for=[ev])
+        prim = out["prim"].astype(np.int64)
+        prim[out["prim"] == 0xFFFFFFFF] = -1
+        return Hits(out["t"], out["b1"], out["b2"], prim, (ev.profile.end - ev.profile.start) * 1e-9)
+
+    def occluded(self, org, dirs, tmin=0.0, tmax=1.0):
+        """(bool array, device seconds): whether anything is hit with t in (tmin, tmax)."""
+        n, rays = self._rays(org, dirs, tmin, tmax)
+        out = np.zeros(n, np.uint8)
+        buf = cl.Buffer(self.rt.context, cl.mem_flags.WRITE_ONLY, max(n, 16))
+        ev = self._k_any(self.rt.queue, (n,), None, rays, buf, np.uint32(n),
+                                   self.up.nodes, self.up.nnodes, self.up.tris)
+        cl.enqueue_copy(self.rt.queue, out, buf, wait_for=[ev])
+        return out.astype(bool), (ev.profile.end - ev.profile.start) * 1e-9

@@ -1,0 +1,60 @@
+"""Shared fixtures: the OpenCL devices to test on, seeded generators, asset paths.
+
+Every device test runs on PoCL's CPU device (always present with
+pyopencl[pocl]) and on each GPU found; set TEXRAY_TEST_DEVICES=all|cpu|gpu
+to choose.
+"""
+import os
+import zlib
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+try:
+    import texray  # noqa: F401  (installed)
+except ImportError:                      # running from a source tree
+    sys.path.insert(0, str(ROOT / "pyhost"))
+    import texray  # noqa: F401
+
+
+def _test_devices():
+    from texray.device import devices
+    want = os.environ.get("TEXRAY_TEST_DEVICES", "all")
+    out = []
+    for d in devices():
+        if want in ("all", d.type) and d.type in ("cpu", "gpu"):
+            if not any(o.type == d.type and o.name == d.name for o in out):
+                out.append(d)
+    return out
+
+
+DEVICES = _test_devices()
+
+
+@pytest.fixture(params=[d.index for d in DEVICES], ids=[f"{d.type}:{d.name[:24]}" for d in DEVICES])
+def device(request):
+    """Index of an OpenCL device (see module docstring)."""
+    return request.param
+
+
+@pytest.fixture
+def rt(device):
+    from texray.device import runtime
+    return runtime(device)
+
+
+@pytest.fixture
+def rng(request):
+    """A seeded generator: the seed is the CRC of the test id (TEXRAY_SEED overrides it) and is
+    reported with the failure."""
+    seed = int(os.environ.get("TEXRAY_SEED", zlib.crc32(request.node.nodeid.encode())))
+    request.node.user_properties.append(("seed", seed))
+    return np.random.default_rng(seed)
+
+
+@pytest.fixture
+def scenes_dir():
+    return ROOT / "scenes"

@@ -1,0 +1,135 @@
+"""A float64 numpy reference renderer of the same equation as the kernels.
+
+Brute force: every ray against every triangle (Moller-Trumbore in float64),
+shadow rays likewise, pixel-centre samples only (render(..., jitter=False)).
+Small scenes only. Texels are taken as the device stores them (rounded to
+half precision), so that differences measure the kernels' arithmetic, not the
+storage format.
+"""
+import numpy as np
+
+from texray.compile import compile_scene
+
+
+def camera_rays(scene, width, height):
+    eye, fwd, right, up = scene.camera.basis(width / height)
+    px, py = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
+    x = 2 * px / width - 1
+    y = 1 - 2 * py / height
+    d = fwd + x[..., None] * right + y[..., None] * up
+    return np.broadcast_to(eye, d.shape).reshape(-1, 3), d.reshape(-1, 3)
+
+
+def intersect(org, dirs, p0, p1, p2, tmax=None):
+    """Closest (t, b1, b2, tri) per ray, float64; tri = -1 for a miss. t in (0, tmax)."""
+    n = len(org)
+    best_t = np.full(n, np.inf) if tmax is None else np.array(tmax, dtype=np.float64).copy()
+    best = np.full(n, -1)
+    bb1 = np.zeros(n)
+    bb2 = np.zeros(n)
+    e1, e2 = p1 - p0, p2 - p0
+    for chunk in range(0, len(p0), 256):
+        sl = slice(chunk, chunk + 256)
+        pv = np.cross(dirs[:, None, :], e2[None, sl])
+        det = np.einsum("rtk,tk->rt", pv, e1[sl])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / det
+            tv = org[:, None, :] - p0[None, sl]
+            b1 = np.einsum("rtk,rtk->rt", tv, pv) * inv
+            qv = np.cross(tv, e1[None, sl])
+            b2 = np.einsum("rk,rtk->rt", dirs, qv) * inv
+            t = np.einsum("rtk,tk->rt", qv, e2[sl]) * inv
+        ok = (det != 0) & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1) & (t > 0) & np.isfinite(t)
+        t = np.where(ok, t, np.inf)
+        j = np.argmin(t, axis=1)
+        tj = t[np.arange(n), j]
+        better = tj < best_t
+        best_t[better] = tj[better]
+        best[better] = j[better] + chunk
+        bb1[better] = b1[np.arange(n), j][better]
+        bb2[better] = b2[np.arange(n), j][better]
+    return best_t, bb1, bb2, best
+
+
+def bilinear(rgba, uv):
+    h, w = rgba.shape[:2]
+    u = uv[:, 0] - np.floor(uv[:, 0])
+    v = uv[:, 1] - np.floor(uv[:, 1])
+    x = u * w - 0.5
+    y = (1 - v) * h - 0.5
+    fx, fy = np.floor(x), np.floor(y)
+    ax, ay = (x - fx)[:, None], (y - fy)[:, None]
+    x0, y0 = fx.astype(int) % w, fy.astype(int) % h
+    x1, y1 = (x0 + 1) % w, (y0 + 1) % h
+    t = rgba.astype(np.float16).astype(np.float64)
+    return ((t[y0, x0] * (1 - ax) + t[y0, x1] * ax) * (1 - ay) + (t[y1, x0] * (1 - ax) + t[y1, x1] * ax) * ay)
+
+
+def render_reference(scene, width, height):
+    """(rgb (H, W, 3) float64, prim id per pixel (H, W), visibility mask (H, W, L))."""
+    cs = compile_scene(scene, jitter=False)
+    tris = cs.triangles
+    p0, p1, p2 = (tris[k].astype(np.float64) for k in ("p0", "p1", "p2"))
+    org, d = camera_rays(scene, width, height)
+    t, b1, b2, tri = intersect(org, d, p0, p1, p2)
+    hit = tri >= 0
+    rgb = np.tile(np.asarray(scene.background, np.float64), (len(org), 1))
+    nl = len(scene.lights)
+    vis_all = np.zeros((len(org), nl), bool)
+    if hit.any():
+        i = tri[hit]
+        B1, B2 = b1[hit][:, None], b2[hit][:, None]
+        B0 = 1 - B1 - B2
+        p = B0 * p0[i] + B1 * p1[i] + B2 * p2[i]
+        ng = np.cross(p1[i] - p0[i], p2[i] - p0[i])
+        ng /= np.linalg.norm(ng, axis=1, keepdims=True)
+        side = np.where(np.einsum("ij,ij->i", ng, d[hit]) > 0, -1.0, 1.0)[:, None]
+        ng *= side
+        ns = ng.copy()
+        v = tris["v"][i]
+        if cs.normals is not None:
+            nrm = cs.normals.reshape(-1, 3).astype(np.float64)
+            m = B0 * nrm[v[:, 0]] + B1 * nrm[v[:, 1]] + B2 * nrm[v[:, 2]]
+            has = (tris["flags"][i] & 1).astype(bool) & (np.linalg.norm(m, axis=1) > 0)
+            ns[has] = side[has] * m[has] / np.linalg.norm(m[has], axis=1, keepdims=True)
+        mats = cs.materials[tris["material"][i]]
+        kd = mats["diffuse"].astype(np.float64)
+        if cs.textures is not None:
+            uvs = cs.uvs.reshape(-1, 2).astype(np.float64)
+            uv = B0 * uvs[v[:, 0]] + B1 * uvs[v[:, 1]] + B2 * uvs[v[:, 2]]
+            for tex_id, tex in enumerate(_textures(scene)):
+                sel = mats["diffuse_tex"] == tex_id
+                kd[sel] *= bilinear(tex.rgba, uv[sel])[:, :3]
+        ks = mats["specular"].astype(np.float64)
+        shin = mats["shininess"].astype(np.float64)
+        view = -d[hit] / np.linalg.norm(d[hit], axis=1, keepdims=True)
+        col = np.asarray(scene.ambient, np.float64) * kd
+        for li, light in enumerate(scene.lights):
+            lp = np.asarray(light.position, np.float64)
+            to_l = lp - p
+            facing = np.einsum("ij,ij->i", to_l, ng) > 0
+            # shadow ray from a point nudged off the surface; brute force any hit in (0, 1)
+            so = p + ng * 1e-7 * (1 + np.abs(p).max(axis=1, keepdims=True))
+            st, *_ = intersect(so, lp - so, p0, p1, p2, tmax=np.ones(len(so)))
+            vis = facing & ~(st < 1.0)
+            vis_all[np.flatnonzero(hit), li] = vis
+            d2 = np.einsum("ij,ij->i", to_l, to_l)
+            lu = to_l / np.sqrt(d2)[:, None]
+            ndl = np.einsum("ij,ij->i", ns, lu)
+            r = 2 * ndl[:, None] * ns - lu
+            rv = np.maximum(np.einsum("ij,ij->i", r, view), 0)
+            spec = ks * (rv ** shin)[:, None]
+            term = (kd * ndl[:, None] + spec) * (np.asarray(light.intensity, np.float64) / d2[:, None])
+            col += np.where((vis & (ndl > 0))[:, None], term, 0)
+        rgb[hit] = col
+    return rgb.reshape(height, width, 3), tri.reshape(height, width), vis_all.reshape(height, width, nl)
+
+
+def _textures(scene):
+    seen, out = set(), []
+    for o in scene.objects:
+        for t in o.material.textures:
+            if id(t) not in seen:
+                seen.add(id(t))
+                out.append(t)
+    return out

@@ -1,0 +1,116 @@
+#!/usr/bin/env python3
+"""(Re)generate texray's showcase assets, deterministically.
+
+    python tools/make_assets.py [--out scenes]
+
+Writes into ``OUT/meshes/``: ``vase.obj``, ``torus.obj`` (v/vt/vn/f lines
+only, ``f a/a/a`` with shared indices, no material library), and into
+``OUT/textures/``: ``wood.png``, ``checker.png``, ``bricks.png`` (8-bit RGB,
+sRGB-encoded display values) and ``bricks_height.png`` (8-bit, 1 channel,
+linear height data (tagged linear) matching ``bricks.png``), all 512 x 512.
+"""
+from __future__ import annotations
+
+import argparse
+import io
+import sys
+from pathlib import Path
+
+import numpy as np
+import OpenImageIO as oiio
+
+REPO = Path(__file__).resolve().parent.parent
+if str(REPO / "pyhost") not in sys.path:
+    sys.path.append(str(REPO / "pyhost"))   # PYTHONPATH wins if set
+
+from texray import procedural as proc  # noqa: E402
+
+TEX_SIZE = 512
+
+
+def obj_text(mesh, comment=""):
+    """OBJ text of a MeshData: v, vt (if any), vn (if any), f lines.
+
+    Vertex, UV and normal arrays share one index, so faces are ``f a/a/a``
+    (``a//a`` without UVs, ``a/a`` without normals, ``a`` with neither).
+    Numbers use %.6g.
+    """
+    out = io.StringIO()
+    for line in comment.splitlines():
+        out.write(f"# {line}\n")
+    np.savetxt(out, mesh.positions, fmt="v %.6g %.6g %.6g")
+    if mesh.uvs is not None:
+        np.savetxt(out, mesh.uvs, fmt="vt %.6g %.6g")
+    if mesh.normals is not None:
+        np.savetxt(out, mesh.normals, fmt="vn %.6g %.6g %.6g")
+    corner = {(True, True): "%d/%d/%d", (True, False): "%d/%d",
+              (False, True): "%d//%d", (False, False): "%d"}[
+        (mesh.uvs is not None, mesh.normals is not None)]
+    reps = corner.count("%d")
+    idx = np.repeat(mesh.faces + 1, reps, axis=1)
+    np.savetxt(out, idx, fmt="f " + " ".join([corner] * 3))
+    return out.getvalue()
+
+
+def write_obj(path, mesh, comment=""):
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="\n") as f:
+        f.write(obj_text(mesh, comment))
+
+
+def write_png(path, image, colorspace="sRGB"):
+    """Write a float (H, W, C) image in [0, 1], row 0 = top, as 8-bit PNG."""
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    pixels = np.round(np.clip(image, 0.0, 1.0) * 255.0).astype(np.uint8)
+    h, w, c = pixels.shape
+    spec = oiio.ImageSpec(w, h, c, oiio.UINT8)
+    spec.attribute("oiio:ColorSpace", colorspace)
+    buf = oiio.ImageBuf(spec)
+    buf.set_pixels(oiio.ROI(), np.ascontiguousarray(pixels))
+    if not buf.write(str(path)):
+        raise RuntimeError(f"writing {path}: {buf.geterror()}")
+
+
+def meshes():
+    """name -> (MeshData, comment) for the showcase meshes."""
+    return {
+        "vase": (proc.vase(n_around=48, n_profile=36),
+                 "texray vase: closed thick-walled solid, 1 unit tall on y=0;"
+                 "\nu around, v along the profile"),
+        "torus": (proc.torus(64, 24, R=0.7, r=0.25),
+                  "texray torus about y: R=0.7, r=0.25; u around y, v around"
+                  " the tube"),
+    }
+
+
+def textures():
+    """file name -> (float image, colour space) for the showcase textures."""
+    s = TEX_SIZE
+    return {
+        "wood.png": (proc.wood(s, seed=7), "sRGB"),
+        "checker.png": (proc.checker(s, n_checks=8), "sRGB"),
+        "bricks.png": (proc.bricks(s, seed=3), "sRGB"),
+        "bricks_height.png": (proc.bricks_height(s, seed=3), "linear"),
+    }
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=str(REPO / "scenes"),
+                    help="output root (default: the repo's scenes/)")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    for name, (mesh, comment) in meshes().items():
+        path = out / "meshes" / f"{name}.obj"
+        write_obj(path, mesh, f"{comment}\n{mesh.n_vertices} vertices, "
+                              f"{mesh.n_triangles} triangles")
+        print(f"{path}: {mesh.n_vertices} v, {mesh.n_triangles} f, "
+              f"{path.stat().st_size / 1024:.0f} KiB")
+    for name, (image, cs) in textures().items():
+        path = out / "textures" / name
+        write_png(path, image, cs)
+        print(f"{path}: {image.shape}, {path.stat().st_size / 1024:.0f} KiB")
+
+
+if __name__ == "__main__":
+    main()
