@@ -39,7 +39,7 @@ def intersect(org, dirs, p0, p1, p2, tmax=None):
             qv = np.cross(tv, e1[None, sl])
             b2 = np.einsum("rk,rtk->rt", dirs, qv) * inv
             t = np.einsum("rtk,tk->rt", qv, e2[sl]) * inv
-        ok = (det != 0) & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1) & (t > 0) & np.isfinite(t)
+            ok = (det != 0) & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1) & (t > 0) & np.isfinite(t)
         t = np.where(ok, t, np.inf)
         j = np.argmin(t, axis=1)
         tj = t[np.arange(n), j]

@@ -77,6 +77,8 @@ def meshes():
         "vase": (proc.vase(n_around=48, n_profile=36),
                  "texray vase: closed thick-walled solid, 1 unit tall on y=0;"
                  "\nu around, v along the profile"),
+        "ground": (proc.grid(1, 1, size=(8, 8), uv_scale=4.0),
+                   "texray ground: 8x8 square at y=0 facing +y, uvs repeat 4 times"),
         "torus": (proc.torus(64, 24, R=0.7, r=0.25),
                   "texray torus about y: R=0.7, r=0.25; u around y, v around"
                   " the tube"),

@@ -56,9 +56,9 @@ from .layout import BVH_NODE, LEAF_COUNT_MASK, PRIM_TRIANGLE, decode_leaf, encod
 SAH_LEAF_MAX = 16
 """Default largest leaf the SAH may choose to keep (see the module docstring)."""
 
-# Above this many (node, bin) pairs per primitive, per-bin bounds are gathered
-# with np.minimum.at instead of reduceat (whose cost is per run, not per item).
-_RUNS_PER_PRIM_FOR_AT = 0.1
+# Grouped minima use np.minimum.reduceat (cost per run) while there are fewer
+# than this many runs per primitive, np.minimum.at (cost per primitive) above.
+_RUNS_PER_PRIM = 0.1
 
 
 @dataclass
@@ -212,15 +212,6 @@ def _inverse_size(bounds):
     return np.clip(inv, 2.0 ** -126, 2.0 ** 126).astype(np.float32)
 
 
-def _sweep_min(d):
-    """Running minimum of ``d`` (6, bins, k) along the bin axis."""
-    out = np.empty(d.shape, d.dtype)
-    out[:, 0] = d[:, 0]
-    for i in range(1, d.shape[1]):
-        np.minimum(out[:, i - 1], d[:, i], out=out[:, i])
-    return out
-
-
 def _exclusive_cumsum(x):
     out = np.zeros(len(x), np.int64)
     np.cumsum(x[:-1], out=out[1:])
@@ -237,7 +228,32 @@ def _node_records(bounds, first, count_kind):
     return rec
 
 
-# --- the level-by-level builder --------------------------------------------
+def _grouped_min(values, group, mins, counts, runs=None):
+    """Minimum and size of groups of columns of ``values`` (6, m) float32.
+
+    Column ``i`` belongs to group ``group[i]``; results go to ``mins`` (6, g),
+    which must hold +inf, and ``counts`` (g,), which must hold 0.  ``runs``:
+    start of every run of equal consecutive ``group`` values, if few enough for
+    a per-run reduction to pay off (else None).
+    """
+    if runs is not None:
+        firsts = group[runs]
+        mins[:, firsts] = np.minimum.reduceat(values, runs, axis=1)
+        counts[firsts] = np.diff(runs, append=len(group))
+    else:
+        for r in range(6):
+            np.minimum.at(mins[r], group, values[r])
+        counts[:] = np.bincount(group, minlength=len(counts))
+
+
+def _run_starts(group, n_groups):
+    """Starts of the runs of equal values in ``group``, or None if there may be many."""
+    if n_groups > _RUNS_PER_PRIM * len(group):
+        return None
+    return np.concatenate(([0], np.flatnonzero(group[1:] != group[:-1]) + 1))
+
+
+# --- binned SAH --------------------------------------------------------------
 
 @dataclass
 class _Segments:
@@ -254,10 +270,70 @@ class _Segments:
         return np.repeat(values, self.cnt)
 
 
+def _bin(ax, seg, bins, mins, counts):
+    """Bin one axis: bounds into ``mins`` (6, bins * k), sizes into ``counts`` (bins * k,).
+
+    A node's centroid range is cut into ``bins`` equal bins; cell ``b * k + node``.
+    """
+    k, cent = len(seg.cnt), ax.cent
+    cmin = cent[seg.start].astype(np.float64)
+    ext = cent[seg.start + seg.cnt - 1] - cmin
+    scale = np.divide(bins * (1.0 - 2.0 ** -20), ext, out=np.zeros_like(ext), where=ext > 0)
+    b = ((cent - seg.per_element(cmin)) * seg.per_element(scale)).astype(np.intp)
+    np.minimum(b, bins - 1, out=b)
+    cell = b * k + seg.node
+    _grouped_min(ax.box, cell, mins, counts, _run_starts(cell, bins * k))
+
+
+def _best_planes(dense, count, inv_s):
+    """Cheapest plane per axis and node from bin bounds (3, 6, bins, k) and counts (3, bins, k).
+
+    Returns ``cost`` (3, k) float32, ``nL*A(L) + nR*A(R)`` in units of
+    ``1 / inv_s**2`` (inf when no plane has primitives on both sides), and
+    ``n_left`` (3, k) int64.  Sweeps plane by plane so that the working set is
+    a few (3, 6, k) slices rather than whole (bins, k) grids.
+    """
+    bins = dense.shape[2]
+    area = lambda b: _scaled_half_area(b.transpose(1, 0, 2), inv_s)  # noqa: E731
+    right = dense[:, :, -1].copy()
+    n_right = count[:, -1].copy()
+    right_cost = np.empty((bins - 1,) + n_right.shape, np.float32)
+    with np.errstate(invalid="ignore", over="ignore"):   # empty side: inf * 0 = nan
+        for i in range(bins - 2, -1, -1):
+            np.multiply(area(right), n_right, out=right_cost[i], casting="unsafe")
+            np.minimum(right, dense[:, :, i], out=right)
+            n_right += count[:, i]
+        left = dense[:, :, 0].copy()
+        n_left = count[:, 0].copy()
+        best = np.full(n_left.shape, np.inf, np.float32)
+        best_n = np.zeros_like(n_left)
+        for i in range(bins - 1):
+            if i:
+                np.minimum(left, dense[:, :, i], out=left)
+                n_left += count[:, i]
+            cost = area(left) * n_left.astype(np.float32)
+            cost += right_cost[i]
+            better = cost < best                       # nan never is
+            np.copyto(best, cost, where=better)
+            np.copyto(best_n, n_left, where=better)
+    return best, best_n
+
+
+# --- the level-by-level builder --------------------------------------------
+
+@dataclass
+class _Level:
+    """All nodes of one depth, in output order."""
+    cnt: np.ndarray     # (k,) int64 primitives per node
+    bounds: np.ndarray  # (6, k) float32, min xyz then -max xyz
+    leaf: np.ndarray    # (k,) bool: already known to be a leaf (count <= max_leaf)
+    first: np.ndarray   # (k,) int64 leaf slot of known leaves (else unused)
+
+
 @dataclass
 class _Axis:
     """Active primitives sorted, inside each node's segment, along one axis."""
-    ids: np.ndarray    # (m,) intp original primitive index
+    ids: np.ndarray    # (m,) uint32 original primitive index
     cent: np.ndarray   # (m,) float32 centroid coordinate on this axis
     box: np.ndarray    # (6, m) float32 boxes, min xyz then -max xyz
 
@@ -274,77 +350,22 @@ class _Axis:
         return _Axis(self.ids[:m], self.cent[:m], self.box[:, :m])
 
 
-@dataclass
-class _Level:
-    """All nodes of one depth, in output order."""
-    cnt: np.ndarray     # (k,) int64 primitives per node
-    bounds: np.ndarray  # (6, k) float32, min xyz then -max xyz
-    leaf: np.ndarray    # (k,) bool: already known to be a leaf (count <= max_leaf)
-    first: np.ndarray   # (k,) int64 leaf slot of known leaves (else unused)
-
-
-def _bin_bounds(ax, seg, bins):
-    """Bounds (6, bins, k) and primitive counts (bins, k) of every node's bins on one axis.
-
-    The node's centroid range is cut into ``bins`` equal bins; empty bins are +inf.
-    """
-    k, m = len(seg.cnt), len(ax.cent)
-    cmin = ax.cent[seg.start].astype(np.float64)
-    ext = ax.cent[seg.start + seg.cnt - 1] - cmin
-    scale = np.divide(bins * (1.0 - 2.0 ** -20), ext, out=np.zeros_like(ext), where=ext > 0)
-    b = ((ax.cent - seg.per_element(cmin)) * seg.per_element(scale)).astype(np.intp)
-    np.minimum(b, bins - 1, out=b)
-    slot = b * k + seg.node                       # cell of a (bins, k) grid
-    dense = np.full((6, bins * k), np.inf, np.float32)
-    if bins * k <= _RUNS_PER_PRIM_FOR_AT * m:     # few, long (node, bin) runs
-        runs = np.concatenate(([0], np.flatnonzero(slot[1:] != slot[:-1]) + 1))
-        dense[:, slot[runs]] = np.minimum.reduceat(ax.box, runs, axis=1)
-        count = np.zeros(bins * k, np.int64)
-        count[slot[runs]] = np.diff(runs, append=m)
-    else:
-        for r in range(6):
-            np.minimum.at(dense[r], slot, ax.box[r])
-        count = np.bincount(slot, minlength=bins * k)
-    return dense.reshape(6, bins, k), count.reshape(bins, k)
-
-
-def _best_plane(ax, seg, bins, inv_s):
-    """Cheapest binned SAH plane of every active node along one axis.
-
-    Returns ``cost`` (k,) float32, ``nL*A(L) + nR*A(R)`` in units of
-    ``1 / inv_s**2`` (inf when no plane has primitives on both sides), and
-    ``n_left`` (k,) int64, the primitives left of that plane.
-    """
-    dense, count = _bin_bounds(ax, seg, bins)
-    left = _sweep_min(dense)[:, :-1]               # bins 0..i, plane i
-    right = _sweep_min(dense[:, ::-1])[:, -2::-1]  # bins i+1..bins-1
-    n_left = np.cumsum(count, axis=0)[:-1]
-    n_right = seg.cnt - n_left
-    with np.errstate(invalid="ignore", over="ignore"):
-        cost = _scaled_half_area(left, inv_s) * n_left.astype(np.float32)
-        cost += _scaled_half_area(right, inv_s) * n_right.astype(np.float32)
-    cost[(n_left == 0) | (n_right == 0)] = np.inf
-    plane = cost.argmin(axis=0)
-    cols = np.arange(len(seg.cnt))
-    return cost[plane, cols], n_left[plane, cols]
-
-
 class _LevelBuilder:
     def __init__(self, lo, hi, max_leaf, bins, kind, t_trav, t_isect, sah_leaf_max):
         self.max_leaf, self.bins, self.kind = max_leaf, bins, kind
         self.t_trav, self.t_isect, self.sah_leaf_max = t_trav, t_isect, sah_leaf_max
-        self.n = len(lo)
+        self.n = n = len(lo)
         box = np.concatenate((lo.T, -hi.T))                # (6, n)
         cent = (lo * np.float32(0.5) + hi * np.float32(0.5)).T
         self.axes = []
         for a in range(3):
-            ids = np.argsort(cent[a])
+            ids = np.argsort(cent[a]).astype(np.uint32)
             self.axes.append(_Axis(ids, cent[a][ids], np.take(box, ids, axis=1)))
-        self.flag = np.empty(self.n, bool)                 # scratch: goes left?
-        self.order = np.empty(self.n, np.uint32)
+        self.flag = np.empty(n, bool)                      # scratch: goes left?
+        self.order = np.empty(n, np.uint32)
         self.filled = 0                                    # leaf slots written
         root_bounds = np.minimum.reduce(box, axis=1)[:, None]
-        self.level = _Level(np.array([self.n]), root_bounds, np.zeros(1, bool),
+        self.level = _Level(np.array([n]), root_bounds, np.zeros(1, bool),
                             np.zeros(1, np.int64))
 
     def run(self):
@@ -373,9 +394,13 @@ class _LevelBuilder:
         Returns (leaf mask over the active nodes, leaf slots of those leaves,
         number of split nodes).
         """
-        seg = _Segments.of(cnt)
+        seg, k, bins = _Segments.of(cnt), len(cnt), self.bins
+        dense = np.full((3, 6, bins, k), np.inf, np.float32)
+        count = np.zeros((3, bins, k), np.int64)
+        for a, ax in enumerate(self.axes):
+            _bin(ax, seg, bins, dense[a].reshape(6, -1), count[a].reshape(-1))
         inv_s = _inverse_size(bounds)
-        costs, n_lefts = zip(*(_best_plane(ax, seg, self.bins, inv_s) for ax in self.axes))
+        costs, n_lefts = _best_planes(dense, count, inv_s)
         area = _half_area(bounds) * inv_s.astype(np.float64) ** 2
         leaf, axis, n_left = self._choose(cnt, area, costs, n_lefts)
         return self._partition(seg, leaf, axis, n_left)
@@ -384,7 +409,7 @@ class _LevelBuilder:
         """Per active node: leaf?, split axis, primitives going left (all for leaves)."""
         cols = np.arange(len(cnt))
         axis = np.argmin(costs, axis=0)
-        best_cost, n_left = np.array(costs)[axis, cols], np.array(n_lefts)[axis, cols]
+        best_cost, n_left = costs[axis, cols], n_lefts[axis, cols]
         split_cost = self.t_trav * area + self.t_isect * best_cost
         leaf = (cnt <= self.sah_leaf_max) & (self.t_isect * cnt * area <= split_cost)
         middle = ~leaf & ~np.isfinite(best_cost)
@@ -440,14 +465,20 @@ class _LevelBuilder:
 
         # Children, and bounds of every output segment (children and new leaves).
         starts = np.concatenate((base_l, base_r[split]))
+        sizes = np.concatenate((n_left, n_right[split]))
         by_start = np.argsort(starts)
-        bounds = np.empty((6, len(starts)), np.float32)
-        bounds[:, by_start] = np.minimum.reduceat(new_axes[0].box, starts[by_start], axis=1)
+        n_seg = len(starts)
+        group = np.repeat(np.arange(n_seg), sizes[by_start])
+        runs = starts[by_start] if n_seg <= _RUNS_PER_PRIM * m else None
+        seg_min = np.full((6, n_seg), np.inf, np.float32)
+        _grouped_min(new_axes[0].box, group, seg_min, np.zeros(n_seg, np.int64), runs)
+        bounds = np.empty_like(seg_min)
+        bounds[:, by_start] = seg_min
         k, s = len(cnt), int(split.sum())
         child = np.empty(2 * s, np.int64)                 # index into starts
         child[0::2] = np.flatnonzero(split)
         child[1::2] = k + np.arange(s)
-        child_cnt = np.concatenate((n_left, n_right[split]))[child]
+        child_cnt = sizes[child]
         self.level = _Level(child_cnt, bounds[:, child], child_cnt <= self.max_leaf,
                             starts[child] + slot0)
         self.axes = [ax.head(m_new) for ax in new_axes]

@@ -62,6 +62,8 @@ def compile_scene(scene: Scene, shadows: bool = True, jitter: bool = True) -> Co
             raise SceneError(f"{mesh.name}: positions overflow float32 after the transform "
                              f"(largest magnitude {np.abs(p).max():.3g})")
         degenerate = degenerate_faces(p32.astype(np.float64), f)
+        if degenerate.all():
+            raise SceneError(f"{mesh.name}: faces: all {len(f)} triangles have zero area; nothing to render")
         warn_degenerate(mesh.name, degenerate)
         keep = np.flatnonzero(~degenerate)
         t = np.zeros(len(keep), layout.TRIANGLE)

@@ -252,10 +252,16 @@ def _flatten(loaded):
         return []
     out = []
     for m, g in items:
-        p = apply_points(m, np.asarray(g.vertices, dtype=np.float64))
+        identity = np.array_equal(m, np.eye(4))
+        p = np.asarray(g.vertices, dtype=np.float64)
+        p = p if identity else apply_points(m, p)
         uv = getattr(g.visual, "uv", None)
         n = g._cache.cache.get("vertex_normals") if hasattr(g, "_cache") else None
-        n = None if n is None or len(n) != len(p) else apply_normals(m, np.asarray(n, dtype=np.float64))
+        if n is not None and len(n) == len(p):
+            n = np.asarray(n, dtype=np.float64)
+            n = n if identity else apply_normals(m, n)
+        else:
+            n = None
         out.append((p, np.asarray(g.faces, dtype=np.int64),
                     None if uv is None or len(uv) != len(p) else np.asarray(uv, dtype=np.float64), n))
     return out

@@ -1,0 +1,41 @@
+"""The command line, as a user runs it."""
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import OpenImageIO as oiio
+
+from texray.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_render_command_writes_png_and_exr(tmp_path, capsys):
+    png, exr = tmp_path / "out.png", tmp_path / "out.exr"
+    scene = ROOT / "scenes" / "showcase.toml"
+    assert main(["render", str(scene), "-o", str(png), "--width", "80", "--height", "60", "--spp", "1",
+                 "--device", "cpu"]) == 0
+    assert main(["render", str(scene), "-o", str(exr), "--width", "80", "--height", "60", "--spp", "1"]) == 0
+    a = oiio.ImageBuf(str(png)).get_pixels(oiio.FLOAT)
+    b = oiio.ImageBuf(str(exr)).get_pixels(oiio.FLOAT)
+    assert a.shape == (60, 80, 3) and b.shape == (60, 80, 3)
+    # PNG holds sRGB-encoded, clamped values of the same linear image the EXR holds (as half).
+    srgb = np.where(b <= 0.0031308, 12.92 * b, 1.055 * np.clip(b, 0, 1) ** (1 / 2.4) - 0.055)
+    assert np.abs(np.clip(srgb, 0, 1) - a).max() <= 1.5 / 255
+    assert "80x60, 1 spp" in capsys.readouterr().out
+
+
+def test_bad_scene_file_is_an_error_not_a_traceback(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[camera]\nfov = 1\n")
+    assert main(["render", str(bad), "-o", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert "bad.toml" in err and "camera.fov: unknown key" in err and "Traceback" not in err
+
+
+def test_devices_command_lists_the_cpu():
+    out = subprocess.run([sys.executable, "-c", "import sys; from texray.cli import main; sys.exit(main(['devices']))"],
+                         capture_output=True, text=True, timeout=60, cwd=ROOT,
+                         env={**__import__("os").environ, "PYTHONPATH": str(ROOT / "pyhost")})
+    assert out.returncode == 0 and "cpu" in out.stdout
