@@ -49,7 +49,7 @@ def _check_against_brute_force(tracer, org, d):
     same = hits.prim[both] == ref_prim[both]
     # A different primitive is fine only when it is at the same distance (a tie on a shared edge).
     assert np.all(same | (t_err <= 1e-5 * scale[both])), "closest hit is not the closest"
-    assert both.sum() > 0.3 * len(org)
+    assert both.sum() > 1000, "too few hits to test anything"
     return hits
 
 
@@ -61,6 +61,13 @@ def test_closest_hit_matches_brute_force_on_random_soup(device, rng):
 
 def test_closest_hit_matches_brute_force_on_closed_mesh(device, rng):
     scene, _ = _sphere_scene(3)
+    org, d = _random_rays(rng, 10_000)
+    _check_against_brute_force(Tracer(scene, device), org, d)
+
+
+def test_closest_hit_matches_brute_force_on_real_mesh(device, rng, scenes_dir):
+    scene = tx.Scene()
+    scene.add(tx.Mesh.load(scenes_dir / "meshes" / "vase.obj", transform=tx.Transform(translate=(0, -0.5, 0))))
     org, d = _random_rays(rng, 10_000)
     _check_against_brute_force(Tracer(scene, device), org, d)
 

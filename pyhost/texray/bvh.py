@@ -228,29 +228,20 @@ def _node_records(bounds, first, count_kind):
     return rec
 
 
-def _grouped_min(values, group, mins, counts, runs=None):
-    """Minimum and size of groups of columns of ``values`` (6, m) float32.
-
-    Column ``i`` belongs to group ``group[i]``; results go to ``mins`` (6, g),
-    which must hold +inf, and ``counts`` (g,), which must hold 0.  ``runs``:
-    start of every run of equal consecutive ``group`` values, if few enough for
-    a per-run reduction to pay off (else None).
-    """
-    if runs is not None:
-        firsts = group[runs]
-        mins[:, firsts] = np.minimum.reduceat(values, runs, axis=1)
-        counts[firsts] = np.diff(runs, append=len(group))
-    else:
-        for r in range(6):
-            np.minimum.at(mins[r], group, values[r])
-        counts[:] = np.bincount(group, minlength=len(counts))
+def _segment_bounds(box, sizes):
+    """Bounds (6, s) of consecutive column segments of ``box`` (6, m); sizes >= 1."""
+    starts = _exclusive_cumsum(sizes)
+    if len(sizes) <= _RUNS_PER_PRIM * box.shape[1]:
+        return np.minimum.reduceat(box, starts, axis=1)
+    out = np.full((6, len(sizes)), np.inf, np.float32)
+    _min_at(out, np.repeat(np.arange(len(sizes)), sizes), box)
+    return out
 
 
-def _run_starts(group, n_groups):
-    """Starts of the runs of equal values in ``group``, or None if there may be many."""
-    if n_groups > _RUNS_PER_PRIM * len(group):
-        return None
-    return np.concatenate(([0], np.flatnonzero(group[1:] != group[:-1]) + 1))
+def _min_at(out, index, values):
+    """``out[:, index[i]] = min(out[:, index[i]], values[:, i])`` for every column i."""
+    for r in range(len(out)):
+        np.minimum.at(out[r], index, values[r])
 
 
 # --- binned SAH --------------------------------------------------------------
@@ -270,19 +261,46 @@ class _Segments:
         return np.repeat(values, self.cnt)
 
 
+@dataclass
+class _Axis:
+    """Active primitives sorted, inside each node's segment, along one axis."""
+    ids: np.ndarray    # (m,) uint32 original primitive index
+    cent: np.ndarray   # (m,) float32 centroid coordinate on this axis
+    box: np.ndarray    # (6, m) float32 boxes, min xyz then -max xyz
+
+    def taken(self, src):
+        """The elements ``src`` (m',) in that order."""
+        return _Axis(self.ids[src], self.cent[src], np.take(self.box, src, axis=1))
+
+    def head(self, m):
+        return _Axis(self.ids[:m], self.cent[:m], self.box[:, :m])
+
+
 def _bin(ax, seg, bins, mins, counts):
     """Bin one axis: bounds into ``mins`` (6, bins * k), sizes into ``counts`` (bins * k,).
 
     A node's centroid range is cut into ``bins`` equal bins; cell ``b * k + node``.
+    ``mins`` must hold +inf and ``counts`` 0.  As each node's segment is sorted,
+    a cell's primitives are consecutive: while runs are few, reduce by run.
     """
-    k, cent = len(seg.cnt), ax.cent
-    cmin = cent[seg.start].astype(np.float64)
-    ext = cent[seg.start + seg.cnt - 1] - cmin
+    k, m = len(seg.cnt), len(ax.cent)
+    cmin = ax.cent[seg.start]
+    ext = ax.cent[seg.start + seg.cnt - 1].astype(np.float64) - cmin
     scale = np.divide(bins * (1.0 - 2.0 ** -20), ext, out=np.zeros_like(ext), where=ext > 0)
-    b = ((cent - seg.per_element(cmin)) * seg.per_element(scale)).astype(np.intp)
-    np.minimum(b, bins - 1, out=b)
-    cell = b * k + seg.node
-    _grouped_min(ax.box, cell, mins, counts, _run_starts(cell, bins * k))
+    scale = np.minimum(scale, np.finfo(np.float32).max).astype(np.float32)
+    x = ax.cent - seg.per_element(cmin)           # float32; monotone in the centroid
+    x *= seg.per_element(scale)
+    cell = x.astype(np.intp)
+    np.minimum(cell, bins - 1, out=cell)
+    cell *= k
+    cell += seg.node
+    if bins * k <= _RUNS_PER_PRIM * m:
+        runs = np.concatenate(([0], np.flatnonzero(cell[1:] != cell[:-1]) + 1))
+        mins[:, cell[runs]] = np.minimum.reduceat(ax.box, runs, axis=1)
+        counts[cell[runs]] = np.diff(runs, append=m)
+    else:
+        _min_at(mins, cell, ax.box)
+        counts[:] = np.bincount(cell, minlength=len(counts))
 
 
 def _best_planes(dense, count, inv_s):
@@ -290,8 +308,8 @@ def _best_planes(dense, count, inv_s):
 
     Returns ``cost`` (3, k) float32, ``nL*A(L) + nR*A(R)`` in units of
     ``1 / inv_s**2`` (inf when no plane has primitives on both sides), and
-    ``n_left`` (3, k) int64.  Sweeps plane by plane so that the working set is
-    a few (3, 6, k) slices rather than whole (bins, k) grids.
+    ``n_left`` (3, k).  Sweeps plane by plane so that the working set is a few
+    (3, 6, k) slices rather than whole (bins, k) grids.
     """
     bins = dense.shape[2]
     area = lambda b: _scaled_half_area(b.transpose(1, 0, 2), inv_s)  # noqa: E731
@@ -326,35 +344,19 @@ class _Level:
     """All nodes of one depth, in output order."""
     cnt: np.ndarray     # (k,) int64 primitives per node
     bounds: np.ndarray  # (6, k) float32, min xyz then -max xyz
-    leaf: np.ndarray    # (k,) bool: already known to be a leaf (count <= max_leaf)
-    first: np.ndarray   # (k,) int64 leaf slot of known leaves (else unused)
-
-
-@dataclass
-class _Axis:
-    """Active primitives sorted, inside each node's segment, along one axis."""
-    ids: np.ndarray    # (m,) uint32 original primitive index
-    cent: np.ndarray   # (m,) float32 centroid coordinate on this axis
-    box: np.ndarray    # (6, m) float32 boxes, min xyz then -max xyz
-
-    def permuted(self, dest):
-        """Copy with element ``i`` moved to position ``dest[i]``."""
-        out = _Axis(np.empty_like(self.ids), np.empty_like(self.cent), np.empty_like(self.box))
-        out.ids[dest] = self.ids
-        out.cent[dest] = self.cent
-        for r in range(6):
-            out.box[r][dest] = self.box[r]
-        return out
-
-    def head(self, m):
-        return _Axis(self.ids[:m], self.cent[:m], self.box[:, :m])
+    leaf: np.ndarray    # (k,) bool, known leaves
+    first: np.ndarray   # (k,) int64 ``first`` field, where known
+    active: np.ndarray  # (ka,) int64 nodes still to split or finish, in the
+    #                     order of their segments in the per-axis arrays
 
 
 class _LevelBuilder:
+    """State of one build: per-axis arrays of the active primitives and the output."""
+
     def __init__(self, lo, hi, max_leaf, bins, kind, t_trav, t_isect, sah_leaf_max):
         self.max_leaf, self.bins, self.kind = max_leaf, bins, kind
         self.t_trav, self.t_isect, self.sah_leaf_max = t_trav, t_isect, sah_leaf_max
-        self.n = n = len(lo)
+        n = len(lo)
         box = np.concatenate((lo.T, -hi.T))                # (6, n)
         cent = (lo * np.float32(0.5) + hi * np.float32(0.5)).T
         self.axes = []
@@ -364,52 +366,53 @@ class _LevelBuilder:
         self.flag = np.empty(n, bool)                      # scratch: goes left?
         self.order = np.empty(n, np.uint32)
         self.filled = 0                                    # leaf slots written
-        root_bounds = np.minimum.reduce(box, axis=1)[:, None]
-        self.level = _Level(np.array([n]), root_bounds, np.zeros(1, bool),
-                            np.zeros(1, np.int64))
+        self.grid = np.empty(0, np.float32)                # reused bin storage
+        self.level = _Level(np.array([n]), np.minimum.reduce(box, axis=1)[:, None],
+                            np.zeros(1, bool), np.zeros(1, np.int64), np.zeros(1, np.int64))
 
     def run(self):
         """Returns (nodes, order, depth)."""
         records, base = [], 0
-        while len(self.level.cnt):
-            lvl = self.level
+        while self.level is not None:
+            lvl, self.level = self.level, None
             k = len(lvl.cnt)
-            first = lvl.first.copy()
+            if len(lvl.active):
+                self._split(lvl, base + k)                 # sets self.level
             count_kind = np.zeros(k, np.uint32)
-            active = np.flatnonzero(~lvl.leaf)
-            self.level = _Level(np.zeros(0, np.int64), None, None, None)
-            if len(active):
-                leaf, slots, n_splits = self._split(lvl.cnt[active], lvl.bounds[:, active])
-                first[active[leaf]] = slots
-                lvl.leaf[active[leaf]] = True
-                first[active[~leaf]] = base + k + 2 * np.arange(n_splits)
             count_kind[lvl.leaf] = encode_leaf(lvl.cnt[lvl.leaf], self.kind)
-            records.append(_node_records(lvl.bounds, first, count_kind))
+            records.append(_node_records(lvl.bounds, lvl.first, count_kind))
             base += k
         return np.concatenate(records), self.order, len(records)
 
-    def _split(self, cnt, bounds):
-        """Split or finish the active nodes; sets ``self.level`` to their children.
-
-        Returns (leaf mask over the active nodes, leaf slots of those leaves,
-        number of split nodes).
-        """
-        seg, k, bins = _Segments.of(cnt), len(cnt), self.bins
-        dense = np.full((3, 6, bins, k), np.inf, np.float32)
-        count = np.zeros((3, bins, k), np.int64)
-        for a, ax in enumerate(self.axes):
-            _bin(ax, seg, bins, dense[a].reshape(6, -1), count[a].reshape(-1))
+    def _split(self, lvl, next_base):
+        """Make each active node of ``lvl`` a leaf or split it; children go to ``self.level``."""
+        cnt, bounds = lvl.cnt[lvl.active], lvl.bounds[:, lvl.active]
+        seg = _Segments.of(cnt)
         inv_s = _inverse_size(bounds)
-        costs, n_lefts = _best_planes(dense, count, inv_s)
+        costs, n_lefts = _best_planes(*self._bins(seg), inv_s)
         area = _half_area(bounds) * inv_s.astype(np.float64) ** 2
         leaf, axis, n_left = self._choose(cnt, area, costs, n_lefts)
-        return self._partition(seg, leaf, axis, n_left)
+        self._mark_left(seg, axis, n_left)
+        self._partition(lvl, seg, leaf, n_left, next_base)
+
+    def _bins(self, seg):
+        """Bin bounds (3, 6, bins, k) and counts (3, bins, k) of the active nodes."""
+        k, bins = len(seg.cnt), self.bins
+        size = 3 * 6 * bins * k
+        if len(self.grid) < size:
+            self.grid = np.empty(2 * size, np.float32)
+        dense = self.grid[:size].reshape(3, 6, bins, k)
+        dense.fill(np.inf)
+        count = np.zeros((3, bins, k), np.int32)
+        for a, ax in enumerate(self.axes):
+            _bin(ax, seg, bins, dense[a].reshape(6, -1), count[a].reshape(-1))
+        return dense, count
 
     def _choose(self, cnt, area, costs, n_lefts):
-        """Per active node: leaf?, split axis, primitives going left (all for leaves)."""
+        """Per active node: leaf?, split axis, primitives going left (all, for leaves)."""
         cols = np.arange(len(cnt))
         axis = np.argmin(costs, axis=0)
-        best_cost, n_left = costs[axis, cols], n_lefts[axis, cols]
+        best_cost, n_left = costs[axis, cols], n_lefts[axis, cols].astype(np.int64)
         split_cost = self.t_trav * area + self.t_isect * best_cost
         leaf = (cnt <= self.sah_leaf_max) & (self.t_isect * cnt * area <= split_cost)
         middle = ~leaf & ~np.isfinite(best_cost)
@@ -418,68 +421,60 @@ class _LevelBuilder:
         n_left[leaf] = cnt[leaf]
         return leaf, axis, n_left
 
-    def _partition(self, seg, leaf, axis, n_left):
-        """Reorder the per-axis arrays into the children's segments.
-
-        Output layout (length m): primitives of active children first, then a
-        tail with the primitives of new leaves (leaf nodes, and children with at
-        most ``max_leaf`` primitives), which is copied to ``order``.
-        """
-        cnt, n_right = seg.cnt, seg.cnt - n_left
-        split = ~leaf
-        act_l = split & (n_left > self.max_leaf)
-        act_r = split & (n_right > self.max_leaf)
-        act_cnt = n_left * act_l + n_right * act_r
-        act_base = _exclusive_cumsum(act_cnt)
-        m, m_new = len(seg.node), int(act_cnt.sum())
-        tail_base = m_new + _exclusive_cumsum(cnt - act_cnt)
-        base_l = np.where(act_l, act_base, tail_base)
-        base_r = np.where(act_r, act_base + n_left * act_l, tail_base + n_left * ~act_l)
-
-        # Left flag per primitive: a prefix of the segment on the chosen axis.
-        index = np.arange(m)
-        pos = index - seg.per_element(seg.start)
+    def _mark_left(self, seg, axis, n_left):
+        """``self.flag[id]``: primitive goes to the left child (a prefix on the split axis)."""
+        pos = np.arange(len(seg.node)) - seg.per_element(seg.start)
         chosen = np.choose(seg.per_element(axis), [ax.ids for ax in self.axes])
         self.flag[chosen] = pos < seg.per_element(n_left)
 
-        # Stable partition.  With c = number of lefts up to element i (inclusive)
-        # and l = lefts in earlier nodes, a left goes to base_l + c - l - 1 and a
-        # right to base_r + pos - (c - l); dest = to_r - c + left * (to_l - to_r + 2c).
-        lefts_before = _exclusive_cumsum(n_left)
-        to_r = seg.per_element(base_r + lefts_before - seg.start) + index
-        l_minus_r = seg.per_element(base_l - lefts_before - 1) - to_r
+    def _partition(self, lvl, seg, leaf, n_left, next_base):
+        """Reorder the per-axis arrays into the children's segments; emit new leaves.
+
+        The reordered axis-0 array holds four blocks of segments, each in the
+        active nodes' order: left children that stay active, right children
+        that stay active, then the tail (copied to ``order``): new leaves
+        (leaf nodes, left children with at most ``max_leaf`` primitives) and
+        right children with at most ``max_leaf`` primitives.  The other axes
+        keep only the first two blocks.  Stable, so segments stay sorted.
+        """
+        cnt, n_right, split = seg.cnt, seg.cnt - n_left, ~leaf
+        act_l = split & (n_left > self.max_leaf)
+        act_r = split & (n_right > self.max_leaf)
+        blocks = [(act_l, n_left), (act_r, n_right), (~act_l, n_left), (split & ~act_r, n_right)]
+        sizes = np.concatenate([n[b] for b, n in blocks])
+        block_base = _exclusive_cumsum([b.sum() for b, _ in blocks])
+        seg_of = [base + np.cumsum(b) - 1 for base, (b, _) in zip(block_base, blocks)]
+        m_new = int(sizes[:block_base[2]].sum())
+
+        in_l, in_r = seg.per_element(act_l), seg.per_element(act_r)
         new_axes = []
-        for ax in self.axes:
-            goes_left = self.flag[ax.ids]
-            c = np.cumsum(goes_left)
-            dest = c * 2
-            dest += l_minus_r
-            dest *= goes_left
-            dest += to_r
-            dest -= c
-            new_axes.append(ax.permuted(dest))
-
-        self.order[self.filled:self.filled + m - m_new] = new_axes[0].ids[m_new:]
-        slot0 = self.filled - m_new
-        self.filled += m - m_new
-
-        # Children, and bounds of every output segment (children and new leaves).
-        starts = np.concatenate((base_l, base_r[split]))
-        sizes = np.concatenate((n_left, n_right[split]))
-        by_start = np.argsort(starts)
-        n_seg = len(starts)
-        group = np.repeat(np.arange(n_seg), sizes[by_start])
-        runs = starts[by_start] if n_seg <= _RUNS_PER_PRIM * m else None
-        seg_min = np.full((6, n_seg), np.inf, np.float32)
-        _grouped_min(new_axes[0].box, group, seg_min, np.zeros(n_seg, np.int64), runs)
-        bounds = np.empty_like(seg_min)
-        bounds[:, by_start] = seg_min
-        k, s = len(cnt), int(split.sum())
-        child = np.empty(2 * s, np.int64)                 # index into starts
-        child[0::2] = np.flatnonzero(split)
-        child[1::2] = k + np.arange(s)
-        child_cnt = sizes[child]
-        self.level = _Level(child_cnt, bounds[:, child], child_cnt <= self.max_leaf,
-                            starts[child] + slot0)
+        for a, ax in enumerate(self.axes):
+            left = self.flag[ax.ids]
+            parts = [left & in_l, left < in_r]
+            if a == 0:
+                parts += [left > in_l, ~(left | in_r)]
+            new_axes.append(ax.taken(np.concatenate([np.flatnonzero(p) for p in parts])))
+        tail = new_axes[0].ids[m_new:]
+        self.order[self.filled:self.filled + len(tail)] = tail
+        slot = _exclusive_cumsum(sizes) + (self.filled - m_new)   # of tail segments
+        self.filled += len(tail)
+        seg_bounds = _segment_bounds(new_axes[0].box, sizes)
         self.axes = [ax.head(m_new) for ax in new_axes]
-        return leaf, base_l[leaf] + slot0, s
+
+        # Children in output order: the two of the r-th split node at 2r, 2r + 1.
+        split_out = np.zeros(len(lvl.cnt), bool)
+        split_out[lvl.active[split]] = True
+        rank = (np.cumsum(split_out) - 1)[lvl.active]
+        lvl.leaf[lvl.active[leaf]] = True
+        lvl.first[lvl.active[leaf]] = slot[seg_of[2][leaf]]
+        lvl.first[lvl.active[split]] = next_base + 2 * rank[split]
+        if not split.any():
+            return
+        child = np.empty(2 * int(split.sum()), np.int64)            # segment of each
+        child[2 * rank[split]] = np.where(act_l, seg_of[0], seg_of[2])[split]
+        child[2 * rank[split] + 1] = np.where(act_r, seg_of[1], seg_of[3])[split]
+        child_cnt = sizes[child]
+        small = child_cnt <= self.max_leaf
+        self.level = _Level(child_cnt, seg_bounds[:, child], small,
+                            np.where(small, slot[child], 0),
+                            np.concatenate((2 * rank[act_l], 2 * rank[act_r] + 1)))
