@@ -58,7 +58,7 @@ inline float box_entry(float4 lo, float4 hi, float3 org, float3 inv_d, float tmi
 typedef struct { float t, b1, b2; uint prim; } HitRec;
 
 /* Closest hit of the ray (org, dir) with t in (tmin, tmax). prim = TX_MISS on a miss. */
-inline HitRec bvh_closest(__global const float4* nodes, uint nnodes, __global const Triangle* tris,
+inline HitRec bvh_closest(__global const float4* nodes, uint nnodes, __global const TriVerts* tris,
                           float3 org, float3 dir, float tmin, float tmax)
 {
     HitRec h = { tmax, 0.0f, 0.0f, TX_MISS };
@@ -77,7 +77,7 @@ inline HitRec bvh_closest(__global const float4* nodes, uint nnodes, __global co
         if (ck != 0u) {
             uint end = first + (ck & LEAF_COUNT_MASK);
             for (uint i = first; i < end; ++i) {
-                __global const Triangle* tr = tris + i;
+                __global const TriVerts* tr = tris + i;
                 float t, b1, b2;
                 if (triangle_intersect(&w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, h.t, &t, &b1, &b2)) {
                     h.t = t; h.b1 = b1; h.b2 = b2; h.prim = i;
@@ -108,7 +108,7 @@ inline HitRec bvh_closest(__global const float4* nodes, uint nnodes, __global co
 }
 
 /* 1 if anything is hit with t in (tmin, tmax). */
-inline int bvh_any(__global const float4* nodes, uint nnodes, __global const Triangle* tris,
+inline int bvh_any(__global const float4* nodes, uint nnodes, __global const TriVerts* tris,
                    float3 org, float3 dir, float tmin, float tmax)
 {
     if (nnodes == 0u) return 0;
@@ -125,7 +125,7 @@ inline int bvh_any(__global const float4* nodes, uint nnodes, __global const Tri
         if (ck != 0u) {
             uint end = first + (ck & LEAF_COUNT_MASK);
             for (uint i = first; i < end; ++i) {
-                __global const Triangle* tr = tris + i;
+                __global const TriVerts* tr = tris + i;
                 float t, b1, b2;
                 if (triangle_intersect(&w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, tmax, &t, &b1, &b2))
                     return 1;

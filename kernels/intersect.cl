@@ -2,7 +2,7 @@
 /* Stage 2: closest hit of every ray of the tile. */
 
 __kernel void intersect(__global const Ray* rays, __global Hit* hits, uint n,
-                        __global const float4* nodes, uint nnodes, __global const Triangle* tris)
+                        __global const float4* nodes, uint nnodes, __global const TriVerts* tris)
 {
     uint gid = get_global_id(0);
     if (gid >= n) return;
@@ -15,7 +15,7 @@ __kernel void intersect(__global const Ray* rays, __global Hit* hits, uint n,
 /* Any hit of every ray with t in (tmin, tmax): 1 = occluded. Used by the
  * benchmark and the tests to time and check shadow-ray traversal alone. */
 __kernel void occluded(__global const Ray* rays, __global uchar* out, uint n,
-                       __global const float4* nodes, uint nnodes, __global const Triangle* tris)
+                       __global const float4* nodes, uint nnodes, __global const TriVerts* tris)
 {
     uint gid = get_global_id(0);
     if (gid >= n) return;

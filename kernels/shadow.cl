@@ -8,7 +8,7 @@
  * which is also what keeps light from leaking through closed meshes. */
 
 __kernel void shadow(__global const Surface* surf, __global uchar* vis, uint n,
-                     __global const float4* nodes, uint nnodes, __global const Triangle* tris,
+                     __global const float4* nodes, uint nnodes, __global const TriVerts* tris,
                      __global const PointLight* lights, uint nlights)
 {
     uint gid = get_global_id(0);

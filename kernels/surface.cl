@@ -5,7 +5,7 @@
  * give the local-illumination constants kd, ks and n. */
 
 __kernel void surface(__global const Ray* rays, __global const Hit* hits, __global Surface* out, uint n,
-                      __global const Triangle* tris, __global const float* normals, __global const float* uvs,
+                      __global const TriVerts* tris, __global const TriShade* shade, __global const float* normals, __global const float* uvs,
                       __global const Material* materials, __global const TextureInfo* textures,
                       __global const half* texels)
 {
@@ -14,9 +14,10 @@ __kernel void surface(__global const Ray* rays, __global const Hit* hits, __glob
     __global const Hit* h = hits + gid;
     __global Surface* s = out + gid;
     if (h->prim == TX_MISS) { s->valid = 0u; return; }
-    __global const Triangle* tr = tris + h->prim;
+    __global const TriVerts* tv = tris + h->prim;
+    __global const TriShade* tr = shade + h->prim;
     float b1 = h->b1, b2 = h->b2, b0 = 1.0f - b1 - b2;
-    float3 p0 = tri_p0(tr), p1 = tri_p1(tr), p2 = tri_p2(tr);
+    float3 p0 = tri_p0(tv), p1 = tri_p1(tv), p2 = tri_p2(tv);
     float3 p = b0 * p0 + b1 * p1 + b2 * p2;
     /* Error bound of the interpolated point (pbrt-v4 6.8.5): the shadow-ray
      * origin moves this far along the geometric normal. */

@@ -88,8 +88,9 @@ inline int triangle_intersect(const WoopRay* w, float3 p0, float3 p1, float3 p2,
     return 1;
 }
 
-inline float3 tri_p0(__global const Triangle* tr) { return vload3(0, tr->p0); }
-inline float3 tri_p1(__global const Triangle* tr) { return vload3(0, tr->p1); }
-inline float3 tri_p2(__global const Triangle* tr) { return vload3(0, tr->p2); }
+/* TriVerts is three float4 (xyz, pad): aligned loads. */
+inline float3 tri_p0(__global const TriVerts* tr) { return ((__global const float4*)tr)[0].xyz; }
+inline float3 tri_p1(__global const TriVerts* tr) { return ((__global const float4*)tr)[1].xyz; }
+inline float3 tri_p2(__global const TriVerts* tr) { return ((__global const float4*)tr)[2].xyz; }
 
 #endif

@@ -63,7 +63,7 @@ def test_shadowed_point_is_dark_and_lit_point_is_not(device):
 
 def _objects(scene):
     from texray.compile import compile_scene
-    return compile_scene(scene).triangles["object"]
+    return compile_scene(scene).tri_shade["object"]
 
 
 def test_no_light_leaks_into_a_closed_box(device):

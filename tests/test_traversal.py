@@ -32,7 +32,7 @@ def _random_rays(rng, n):
 
 def _check_against_brute_force(tracer, org, d):
     cs = tracer.compiled
-    p0, p1, p2 = (cs.triangles[k].astype(np.float64) for k in ("p0", "p1", "p2"))
+    p0, p1, p2 = (cs.tri_verts[k].astype(np.float64) for k in ("p0", "p1", "p2"))
     ref_t, rb1, rb2, ref_prim = intersect(org, d, p0, p1, p2)
     hits = tracer.closest(org.astype(np.float32), d.astype(np.float32))
     got_hit, ref_hit = hits.prim >= 0, ref_prim >= 0

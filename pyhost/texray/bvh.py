@@ -423,9 +423,10 @@ class _LevelBuilder:
 
     def _mark_left(self, seg, axis, n_left):
         """``self.flag[id]``: primitive goes to the left child (a prefix on the split axis)."""
-        pos = np.arange(len(seg.node)) - seg.per_element(seg.start)
-        chosen = np.choose(seg.per_element(axis), [ax.ids for ax in self.axes])
-        self.flag[chosen] = pos < seg.per_element(n_left)
+        chosen = self.axes[0].ids.copy()
+        for a in (1, 2):
+            np.copyto(chosen, self.axes[a].ids, where=seg.per_element(axis == a))
+        self.flag[chosen] = np.arange(len(chosen)) < seg.per_element(seg.start + n_left)
 
     def _partition(self, lvl, seg, leaf, n_left, next_base):
         """Reorder the per-axis arrays into the children's segments; emit new leaves.

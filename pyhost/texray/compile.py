@@ -16,7 +16,8 @@ from .scene import Scene, degenerate_faces, warn_degenerate
 
 @dataclass
 class CompiledScene:
-    triangles: np.ndarray          # layout.TRIANGLE, BVH leaf order
+    tri_verts: np.ndarray          # layout.TRI_VERTS, BVH leaf order
+    tri_shade: np.ndarray          # layout.TRI_SHADE, same order
     nodes: np.ndarray              # layout.BVH_NODE
     normals: np.ndarray | None     # float32 (V*3,), indexed by Triangle.v
     uvs: np.ndarray | None         # float32 (V*2,)
@@ -31,7 +32,7 @@ class CompiledScene:
 
     def device_bytes(self) -> dict[str, int]:
         """Bytes each uploaded array takes on the device (absent arrays are not uploaded)."""
-        arrays = {"triangles": self.triangles, "nodes": self.nodes, "normals": self.normals, "uvs": self.uvs,
+        arrays = {"tri_verts": self.tri_verts, "tri_shade": self.tri_shade, "nodes": self.nodes, "normals": self.normals, "uvs": self.uvs,
                   "materials": self.materials, "textures": self.textures, "texels": self.texels,
                   "lights": self.lights}
         return {k: int(v.nbytes) for k, v in arrays.items() if v is not None}
@@ -42,7 +43,7 @@ def compile_scene(scene: Scene, shadows: bool = True, jitter: bool = True) -> Co
     if not isinstance(scene, Scene):
         raise SceneError(f"render: expected a texray.Scene, got {type(scene).__name__}")
     materials, textures, mat_index, tex_index = [], [], {}, {}
-    pos, nrm, uvs, tris = [], [], [], []
+    nrm, uvs, verts, tris = [], [], [], []
     any_normals = any(o.normals is not None for o in scene.objects)
     any_uvs = any(o.uvs is not None and o.material.textures for o in scene.objects)
     voff = 0
@@ -66,9 +67,11 @@ def compile_scene(scene: Scene, shadows: bool = True, jitter: bool = True) -> Co
             raise SceneError(f"{mesh.name}: faces: all {len(f)} triangles have zero area; nothing to render")
         warn_degenerate(mesh.name, degenerate)
         keep = np.flatnonzero(~degenerate)
-        t = np.zeros(len(keep), layout.TRIANGLE)
         fk = f[keep]
-        t["p0"], t["p1"], t["p2"] = p32[fk[:, 0]], p32[fk[:, 1]], p32[fk[:, 2]]
+        tv = np.zeros(len(keep), layout.TRI_VERTS)
+        tv["p0"], tv["p1"], tv["p2"] = p32[fk[:, 0]], p32[fk[:, 1]], p32[fk[:, 2]]
+        verts.append(tv)
+        t = np.zeros(len(keep), layout.TRI_SHADE)
         t["material"] = mat_index[id(m)]
         t["object"] = obj_id
         t["prim"] = keep
@@ -83,14 +86,12 @@ def compile_scene(scene: Scene, shadows: bool = True, jitter: bool = True) -> Co
             uvs.append(mesh.uvs if has else np.zeros((len(p), 2)))
         t["flags"] = flags
         tris.append(t)
-        pos.append(p32)
         voff += len(p)
-    triangles = np.concatenate(tris) if tris else np.zeros(0, layout.TRIANGLE)
-
-    lo = np.minimum(np.minimum(triangles["p0"], triangles["p1"]), triangles["p2"])
-    hi = np.maximum(np.maximum(triangles["p0"], triangles["p1"]), triangles["p2"])
+    tri_verts = np.concatenate(verts) if verts else np.zeros(0, layout.TRI_VERTS)
+    tri_shade = np.concatenate(tris) if tris else np.zeros(0, layout.TRI_SHADE)
+    lo, hi = triangle_bounds(tri_verts)
     tree = bvh_mod.build(lo, hi)
-    triangles = triangles[tree.order]
+    tri_verts, tri_shade = tri_verts[tree.order], tri_shade[tree.order]
 
     mats = np.zeros(max(len(materials), 1), layout.MATERIAL)
     mats["diffuse_tex"] = mats["bump_tex"] = mats["normal_tex"] = mats["specular_tex"] = -1
@@ -113,13 +114,19 @@ def compile_scene(scene: Scene, shadows: bool = True, jitter: bool = True) -> Co
                         shadows=shadows and bool(scene.lights), jitter=jitter,
                         stack_size=stack_size_for(tree.depth))
     return CompiledScene(
-        triangles=triangles, nodes=tree.nodes,
+        tri_verts=tri_verts, tri_shade=tri_shade, nodes=tree.nodes,
         normals=np.concatenate(nrm).astype(np.float32).ravel() if any_normals else None,
         uvs=np.concatenate(uvs).astype(np.float32).ravel() if any_uvs else None,
         materials=mats, textures=tex_table, texels=texels, lights=lights,
         ambient=np.append(_rgb(scene.ambient, "ambient", "scene."), 0).astype(np.float32),
         background=np.append(_rgb(scene.background, "background", "scene."), 0).astype(np.float32),
         features=features, bvh=tree)
+
+
+def triangle_bounds(tri_verts):
+    """(lo, hi) float32 (n, 3) boxes of TRI_VERTS triangles (exact: min/max of float32)."""
+    p0, p1, p2 = tri_verts["p0"], tri_verts["p1"], tri_verts["p2"]
+    return np.minimum(np.minimum(p0, p1), p2), np.maximum(np.maximum(p0, p1), p2)
 
 
 def _pack_textures(textures):

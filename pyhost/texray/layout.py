@@ -43,14 +43,20 @@ def decode_leaf(count_kind):
     return ck & np.uint32(LEAF_COUNT_MASK), ck >> np.uint32(LEAF_COUNT_BITS)
 
 
-# --- Triangle, in BVH leaf order: 64 bytes ----------------------------------
-# Positions are world space (object transform applied on the host).
-# ``v`` indexes the per-vertex shading arrays (normals, uvs) of the scene.
-TRIANGLE = np.dtype([
-    ("p0", "<f4", (3,)), ("material", "<u4"),
-    ("p1", "<f4", (3,)), ("object", "<u4"),
-    ("p2", "<f4", (3,)), ("prim", "<u4"),
-    ("v", "<u4", (3,)), ("flags", "<u4"),
+# --- Triangles, in BVH leaf order, as two arrays -----------------------------
+# What traversal reads (48 bytes: three float4 loads, three per 64-byte line
+# less than with the shading data interleaved), world-space positions:
+TRI_VERTS = np.dtype([
+    ("p0", "<f4", (3,)), ("pad0", "<f4"),
+    ("p1", "<f4", (3,)), ("pad1", "<f4"),
+    ("p2", "<f4", (3,)), ("pad2", "<f4"),
+])
+# What the surface stage reads for a hit (32 bytes): ``v`` indexes the
+# per-vertex shading arrays (normals, uvs); ``prim`` is the face index in its
+# object's input, ``object`` the object's index in the scene.
+TRI_SHADE = np.dtype([
+    ("v", "<u4", (3,)), ("material", "<u4"),
+    ("object", "<u4"), ("prim", "<u4"), ("flags", "<u4"), ("pad0", "<u4"),
 ])
 TRI_HAS_NORMALS = 1
 TRI_HAS_UVS = 2
@@ -100,7 +106,7 @@ SURFACE = np.dtype([
 ])
 
 STRUCTS = {
-    "BVHNode": BVH_NODE, "Triangle": TRIANGLE, "Material": MATERIAL,
+    "BVHNode": BVH_NODE, "TriVerts": TRI_VERTS, "TriShade": TRI_SHADE, "Material": MATERIAL,
     "TextureInfo": TEXTURE, "PointLight": POINT_LIGHT, "Camera": CAMERA,
     "Ray": RAY, "Hit": HIT, "Surface": SURFACE,
 }

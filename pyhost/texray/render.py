@@ -53,7 +53,7 @@ class _Uploaded:
             if a is None or a.nbytes == 0:
                 return None
             return cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a))
-        self.nodes, self.tris = buf(cs.nodes), buf(cs.triangles)
+        self.nodes, self.tris, self.shade = buf(cs.nodes), buf(cs.tri_verts), buf(cs.tri_shade)
         self.normals, self.uvs = buf(cs.normals), buf(cs.uvs)
         self.materials, self.textures, self.texels = buf(cs.materials), buf(cs.textures), buf(cs.texels)
         self.lights = buf(cs.lights)
@@ -119,7 +119,7 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
             events["raygen"].append(k["raygen"](q, gsize, None, rays, cam_buf, u32(width), u32(height), u32(0),
                                                 u32(y0), u32(width), u32(n), u32(s), u32(spp), u32(seed & 0xffffffff)))
             events["intersect"].append(k["intersect"](q, gsize, None, rays, hits, u32(n), up.nodes, up.nnodes, up.tris))
-            events["surface"].append(k["surface"](q, gsize, None, rays, hits, surf, u32(n), up.tris, up.normals, up.uvs,
+            events["surface"].append(k["surface"](q, gsize, None, rays, hits, surf, u32(n), up.tris, up.shade, up.normals, up.uvs,
                                                   up.materials, up.textures, up.texels))
             if up.nlights:
                 events["shadow"].append(k["shadow"](q, gsize, None, surf, vis, u32(n), up.nodes, up.nnodes, up.tris,
@@ -137,7 +137,7 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     stage_s = {name: sum((e.profile.end - e.profile.start) for e in evs) * 1e-9 for name, evs in events.items()}
     stats = {
         "width": width, "height": height, "spp": spp, "device": rt.device.name.strip(),
-        "triangles": int(len(cs.triangles)), "bvh_nodes": int(len(cs.nodes)), "bvh_depth": cs.bvh.depth,
+        "triangles": int(len(cs.tri_verts)), "bvh_nodes": int(len(cs.nodes)), "bvh_depth": cs.bvh.depth,
         "bvh_build_s": cs.bvh.build_seconds, "sah_cost": cs.bvh.sah_cost,
         "scene_compile_s": t_compiled - t_start, "program_build_s": t_built - t_compiled,
         "render_s": t_end - t_built, "total_s": t_end - t_start, "stage_s": stage_s,
