@@ -397,7 +397,8 @@ class _LevelBuilder:
 
     def _bins(self, seg):
         """Bin bounds (3, 6, bins, k) and counts (3, bins, k) of the active nodes."""
-        k, bins = len(seg.cnt), self.bins
+        k = len(seg.cnt)
+        bins = int(np.clip(len(seg.node) // (2 * k), 4, self.bins))
         size = 3 * 6 * bins * k
         if len(self.grid) < size:
             self.grid = np.empty(2 * size, np.float32)

@@ -27,6 +27,9 @@ BVH_NODE = np.dtype([
 LEAF_COUNT_BITS = 24
 LEAF_COUNT_MASK = (1 << LEAF_COUNT_BITS) - 1
 PRIM_TRIANGLE = 0
+PRIM_SPHERE = 1
+PRIM_CYLINDER = 2
+PRIM_QUAD = 3
 
 
 def encode_leaf(count, kind=PRIM_TRIANGLE):
@@ -60,6 +63,38 @@ TRI_SHADE = np.dtype([
 ])
 TRI_HAS_NORMALS = 1
 TRI_HAS_UVS = 2
+
+# --- Analytic primitives (issue 3) -------------------------------------------
+# Frames are orthonormal: axis_x (phi = 0 / theta = 0 direction) and axis_z
+# (the sphere's pole theta = 0, the cylinder's axis); y = z cross x.
+SPHERE = np.dtype([
+    ("center", "<f4", (3,)), ("radius", "<f4"),
+    ("axis_x", "<f4", (3,)), ("material", "<u4"),
+    ("axis_z", "<f4", (3,)), ("object", "<u4"),
+    ("prim", "<u4"), ("flags", "<u4"), ("pad0", "<u4"), ("pad1", "<u4"),
+])
+# Partial open cylinder of the lecture: x = r cos(theta), y = r sin(theta) in
+# the frame, z in [z_min, z_max], theta in [theta_min, theta_max] (radians).
+CYLINDER = np.dtype([
+    ("origin", "<f4", (3,)), ("radius", "<f4"),
+    ("axis_x", "<f4", (3,)), ("z_min", "<f4"),
+    ("axis_z", "<f4", (3,)), ("z_max", "<f4"),
+    ("theta_min", "<f4"), ("theta_max", "<f4"), ("material", "<u4"), ("object", "<u4"),
+    ("prim", "<u4"), ("flags", "<u4"), ("pad0", "<u4"), ("pad1", "<u4"),
+])
+# Bilinear patch P(u,v) = (1-u)(1-v)P0 + u(1-v)P1 + uv P2 + (1-u)v P3, as read
+# by traversal (QuadVerts) and by the surface stage (QuadShade: per-vertex
+# texture coordinates u0 v0 u1 v1 u2 v2 u3 v3, interpolated bilinearly).
+QUAD_VERTS = np.dtype([
+    ("p0", "<f4", (3,)), ("pad0", "<f4"),
+    ("p1", "<f4", (3,)), ("pad1", "<f4"),
+    ("p2", "<f4", (3,)), ("pad2", "<f4"),
+    ("p3", "<f4", (3,)), ("pad3", "<f4"),
+])
+QUAD_SHADE = np.dtype([
+    ("uv", "<f4", (8,)),
+    ("material", "<u4"), ("object", "<u4"), ("prim", "<u4"), ("flags", "<u4"),
+])
 
 # --- Material: 48 bytes -----------------------------------------------------
 # Texture slots are indices into the texture table, -1 = none.
@@ -106,7 +141,8 @@ SURFACE = np.dtype([
 ])
 
 STRUCTS = {
-    "BVHNode": BVH_NODE, "TriVerts": TRI_VERTS, "TriShade": TRI_SHADE, "Material": MATERIAL,
+    "BVHNode": BVH_NODE, "TriVerts": TRI_VERTS, "TriShade": TRI_SHADE,
+    "Sphere": SPHERE, "Cylinder": CYLINDER, "QuadVerts": QUAD_VERTS, "QuadShade": QUAD_SHADE, "Material": MATERIAL,
     "TextureInfo": TEXTURE, "PointLight": POINT_LIGHT, "Camera": CAMERA,
     "Ray": RAY, "Hit": HIT, "Surface": SURFACE,
 }
@@ -115,7 +151,8 @@ _C_TYPES = {np.dtype("<f4"): "float", np.dtype("<u4"): "uint", np.dtype("<i4"): 
 
 CONSTANTS = {
     "LEAF_COUNT_BITS": LEAF_COUNT_BITS, "LEAF_COUNT_MASK": LEAF_COUNT_MASK,
-    "PRIM_TRIANGLE": PRIM_TRIANGLE, "TRI_HAS_NORMALS": TRI_HAS_NORMALS,
+    "PRIM_TRIANGLE": PRIM_TRIANGLE, "PRIM_SPHERE": PRIM_SPHERE, "PRIM_CYLINDER": PRIM_CYLINDER,
+    "PRIM_QUAD": PRIM_QUAD, "TRI_HAS_NORMALS": TRI_HAS_NORMALS,
     "TRI_HAS_UVS": TRI_HAS_UVS,
 }
 
