@@ -12,6 +12,12 @@
 #define TX_STACK_SIZE 64
 #endif
 
+/* The scene's geometry as kernel parameters and as arguments; arrays of kinds
+ * the scene does not use are NULL and their code is not compiled. */
+#define TX_GEOM_PARAMS __global const float4* nodes, uint nnodes, __global const TriVerts* tris, \
+    __global const Sphere* spheres, __global const Cylinder* cylinders, __global const QuadVerts* quads
+#define TX_GEOM_ARGS nodes, nnodes, tris, spheres, cylinders, quads
+
 /* Slab test for a ray with a zero direction component: such an axis bounds
  * nothing while the origin lies in [lo, hi] (boundaries included) and
  * excludes everything otherwise. The fast test cannot say so: the zero is
@@ -58,8 +64,7 @@ inline float box_entry(float4 lo, float4 hi, float3 org, float3 inv_d, float tmi
 typedef struct { float t, b1, b2; uint prim; } HitRec;
 
 /* Closest hit of the ray (org, dir) with t in (tmin, tmax). prim = TX_MISS on a miss. */
-inline HitRec bvh_closest(__global const float4* nodes, uint nnodes, __global const TriVerts* tris,
-                          float3 org, float3 dir, float tmin, float tmax)
+inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
 {
     HitRec h = { tmax, 0.0f, 0.0f, TX_MISS };
     if (nnodes == 0u) return h;
@@ -75,14 +80,47 @@ inline HitRec bvh_closest(__global const float4* nodes, uint nnodes, __global co
         float4 a = nodes[2u * node], b = nodes[2u * node + 1u];
         uint ck = as_uint(b.w), first = as_uint(a.w);
         if (ck != 0u) {
-            uint end = first + (ck & LEAF_COUNT_MASK);
-            for (uint i = first; i < end; ++i) {
-                __global const TriVerts* tr = tris + i;
-                float t, b1, b2;
-                if (triangle_intersect(&w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, h.t, &t, &b1, &b2)) {
-                    h.t = t; h.b1 = b1; h.b2 = b2; h.prim = i;
+            uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
+            if (kind == PRIM_TRIANGLE) {
+                for (uint i = first; i < end; ++i) {
+                    __global const TriVerts* tr = tris + i;
+                    float t, b1, b2;
+                    if (triangle_intersect(&w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, h.t, &t, &b1, &b2)) {
+                        h.t = t; h.b1 = b1; h.b2 = b2; h.prim = i;
+                    }
                 }
             }
+#if TX_SPHERES
+            else if (kind == PRIM_SPHERE) {
+                for (uint i = first; i < end; ++i) {
+                    float t;
+                    if (sphere_intersect(spheres + i, org, dir, tmin, h.t, &t)) {
+                        h.t = t; h.prim = (PRIM_SPHERE << HIT_KIND_SHIFT) | i;
+                    }
+                }
+            }
+#endif
+#if TX_CYLINDERS
+            else if (kind == PRIM_CYLINDER) {
+                for (uint i = first; i < end; ++i) {
+                    float t;
+                    if (cylinder_intersect(cylinders + i, org, dir, tmin, h.t, &t)) {
+                        h.t = t; h.prim = (PRIM_CYLINDER << HIT_KIND_SHIFT) | i;
+                    }
+                }
+            }
+#endif
+#if TX_QUADS
+            else if (kind == PRIM_QUAD) {
+                for (uint i = first; i < end; ++i) {
+                    float t;
+                    float2 uv;
+                    if (quad_intersect(quads + i, org, dir, tmin, h.t, &t, &uv)) {
+                        h.t = t; h.b1 = uv.x; h.b2 = uv.y; h.prim = (PRIM_QUAD << HIT_KIND_SHIFT) | i;
+                    }
+                }
+            }
+#endif
         } else {
             float tl = box_entry(nodes[2u * first], nodes[2u * first + 1u], org, inv_d, tmin, h.t, par);
             float tr = box_entry(nodes[2u * first + 2u], nodes[2u * first + 3u], org, inv_d, tmin, h.t, par);
@@ -108,8 +146,7 @@ inline HitRec bvh_closest(__global const float4* nodes, uint nnodes, __global co
 }
 
 /* 1 if anything is hit with t in (tmin, tmax). */
-inline int bvh_any(__global const float4* nodes, uint nnodes, __global const TriVerts* tris,
-                   float3 org, float3 dir, float tmin, float tmax)
+inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
 {
     if (nnodes == 0u) return 0;
     WoopRay w = woop_setup(org, dir);
@@ -123,13 +160,34 @@ inline int bvh_any(__global const float4* nodes, uint nnodes, __global const Tri
         float4 a = nodes[2u * node], b = nodes[2u * node + 1u];
         uint ck = as_uint(b.w), first = as_uint(a.w);
         if (ck != 0u) {
-            uint end = first + (ck & LEAF_COUNT_MASK);
-            for (uint i = first; i < end; ++i) {
-                __global const TriVerts* tr = tris + i;
-                float t, b1, b2;
-                if (triangle_intersect(&w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, tmax, &t, &b1, &b2))
-                    return 1;
+            uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
+            float t, b1, b2;
+            if (kind == PRIM_TRIANGLE) {
+                for (uint i = first; i < end; ++i) {
+                    __global const TriVerts* tr = tris + i;
+                    if (triangle_intersect(&w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, tmax, &t, &b1, &b2))
+                        return 1;
+                }
             }
+#if TX_SPHERES
+            else if (kind == PRIM_SPHERE) {
+                for (uint i = first; i < end; ++i)
+                    if (sphere_intersect(spheres + i, org, dir, tmin, tmax, &t)) return 1;
+            }
+#endif
+#if TX_CYLINDERS
+            else if (kind == PRIM_CYLINDER) {
+                for (uint i = first; i < end; ++i)
+                    if (cylinder_intersect(cylinders + i, org, dir, tmin, tmax, &t)) return 1;
+            }
+#endif
+#if TX_QUADS
+            else if (kind == PRIM_QUAD) {
+                float2 uv;
+                for (uint i = first; i < end; ++i)
+                    if (quad_intersect(quads + i, org, dir, tmin, tmax, &t, &uv)) return 1;
+            }
+#endif
         } else {
             int hl = box_entry(nodes[2u * first], nodes[2u * first + 1u], org, inv_d, tmin, tmax, par) != INFINITY;
             int hr = box_entry(nodes[2u * first + 2u], nodes[2u * first + 3u], org, inv_d, tmin, tmax, par) != INFINITY;

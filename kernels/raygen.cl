@@ -3,16 +3,13 @@
 
 __kernel void raygen(__global Ray* rays, __constant Camera* cam,
                      uint width, uint height, uint x0, uint y0, uint tile_w, uint tile_n,
-                     uint sample, uint spp, uint seed)
+                     uint sample, uint spp, uint seed, uint jitter)
 {
     uint gid = get_global_id(0);
     if (gid >= tile_n) return;
     uint px = x0 + gid % tile_w, py = y0 + gid / tile_w;
-#if TX_JITTER
-    float2 j = cmj_sample(sample, spp, hash_u32((py * width + px) ^ hash_u32(seed)));
-#else
-    float2 j = (float2)(0.5f, 0.5f);
-#endif
+    float2 j = jitter ? cmj_sample(sample, spp, hash_u32((py * width + px) ^ hash_u32(seed)))
+                      : (float2)(0.5f, 0.5f);
     float x = 2.0f * ((float)px + j.x) / (float)width - 1.0f;
     float y = 1.0f - 2.0f * ((float)py + j.y) / (float)height;
     float3 d = vload3(0, cam->forward) + x * vload3(0, cam->right) + y * vload3(0, cam->up);

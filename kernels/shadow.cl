@@ -7,8 +7,7 @@
  * surface is occluded by that surface itself: it gets vis = 0 without a ray,
  * which is also what keeps light from leaking through closed meshes. */
 
-__kernel void shadow(__global const Surface* surf, __global uchar* vis, uint n,
-                     __global const float4* nodes, uint nnodes, __global const TriVerts* tris,
+__kernel void shadow(__global const Surface* surf, __global uchar* vis, uint n, TX_GEOM_PARAMS,
                      __global const PointLight* lights, uint nlights)
 {
     uint gid = get_global_id(0);
@@ -22,7 +21,7 @@ __kernel void shadow(__global const Surface* surf, __global uchar* vis, uint n,
         uchar v = 0;
         if (dot3(d, ng) > 0.0f) {
 #if TX_SHADOWS
-            v = !bvh_any(nodes, nnodes, tris, org, d, 0.0f, 1.0f);
+            v = !bvh_any(TX_GEOM_ARGS, org, d, 0.0f, 1.0f);
 #else
             v = 1;
 #endif

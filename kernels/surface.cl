@@ -1,55 +1,109 @@
 #line 2 "surface.cl"
-/* Stage 3: surface evaluation. From a hit, the lecture's barycentric
- * interpolation P = (1 - b1 - b2) P0 + b1 P1 + b2 P2 gives the point, the
- * shading normal and the texture coordinates; the material's texture lookups
- * give the local-illumination constants kd, ks and n. */
+/* Stage 3: surface evaluation. Each primitive kind gives the hit's geometry
+ * (point, geometric normal, dP/du, dP/dv, texture uv: Geom); triangles add
+ * the interpolated vertex normal. Normals are then turned to the side the
+ * ray came from, and the material's texture lookups give the local
+ * illumination's kd, ks and n. With TX_AOVS, the stage also writes the AOV
+ * record of texray.layout.AOVS (NaN, or -1 for ids, where the ray missed). */
+
+inline void write_aovs(__global float* aov, uint gid, const Geom* g, float3 ns, float depth, uint prim, uint object)
+{
+    __global float* a = aov + (size_t)gid * AOV_FLOATS;
+    vstore2(g->uv, 0, a + AOV_UV);
+    vstore3(g->p, 0, a + AOV_POSITION);
+    vstore3(g->ng, 0, a + AOV_NORMAL);
+    vstore3(ns, 0, a + AOV_SHADING_NORMAL);
+    a[AOV_DEPTH] = depth;
+    a[AOV_PRIMITIVE_ID] = (float)prim;
+    a[AOV_OBJECT_ID] = (float)object;
+    vstore3(g->dpdu, 0, a + AOV_DPDU);
+    vstore3(g->dpdv, 0, a + AOV_DPDV);
+}
+
+inline void write_miss_aovs(__global float* aov, uint gid)
+{
+    __global float* a = aov + (size_t)gid * AOV_FLOATS;
+    for (uint i = 0; i < AOV_FLOATS; ++i) a[i] = NAN;
+    a[AOV_PRIMITIVE_ID] = -1.0f;
+    a[AOV_OBJECT_ID] = -1.0f;
+}
 
 __kernel void surface(__global const Ray* rays, __global const Hit* hits, __global Surface* out, uint n,
-                      __global const TriVerts* tris, __global const TriShade* shade, __global const float* normals, __global const float* uvs,
+                      TX_GEOM_PARAMS, __global const TriShade* tri_shade, __global const QuadShade* quad_shade,
+                      __global const float* normals, __global const float* uvs,
                       __global const Material* materials, __global const TextureInfo* textures,
-                      __global const half* texels)
+                      __global const half* texels, __global float* aov)
 {
     uint gid = get_global_id(0);
     if (gid >= n) return;
     __global const Hit* h = hits + gid;
     __global Surface* s = out + gid;
-    if (h->prim == TX_MISS) { s->valid = 0u; return; }
-    __global const TriVerts* tv = tris + h->prim;
-    __global const TriShade* tr = shade + h->prim;
-    float b1 = h->b1, b2 = h->b2, b0 = 1.0f - b1 - b2;
-    float3 p0 = tri_p0(tv), p1 = tri_p1(tv), p2 = tri_p2(tv);
-    float3 p = b0 * p0 + b1 * p1 + b2 * p2;
-    /* Error bound of the interpolated point (pbrt-v4 6.8.5): the shadow-ray
-     * origin moves this far along the geometric normal. */
-    float3 perr = gamma_n(7.0f) * (abs3(b0 * p0) + abs3(b1 * p1) + abs3(b2 * p2));
-
-    float3 ng = normalize3(cross3(p1 - p0, p2 - p0));
-    float side = dot3(ng, ray_dir(rays + gid)) > 0.0f ? -1.0f : 1.0f;   /* face the incoming ray */
-    ng *= side;
-    float3 ns = ng;
+    if (h->prim == TX_MISS) {
+        s->valid = 0u;
+#if TX_AOVS
+        if (aov) write_miss_aovs(aov, gid);
+#endif
+        return;
+    }
+    uint kind = h->prim >> HIT_KIND_SHIFT, idx = h->prim & HIT_INDEX_MASK;
+    float3 org = ray_org(rays + gid), dir = ray_dir(rays + gid);
+    Geom g;
+    uint material = 0u, object = 0u, prim = 0u;
+    int vertex_normal = 0;
+    float3 ns_raw = (float3)(0.0f);
+    if (kind == PRIM_TRIANGLE) {
+        __global const TriShade* ts = tri_shade + idx;
+        triangle_geom(tris + idx, ts, h->b1, h->b2, uvs, &g);
+        material = ts->material; object = ts->object; prim = ts->prim;
 #if TX_VERTEX_NORMALS
-    if (tr->flags & TRI_HAS_NORMALS) {
-        float3 m = b0 * vload3(tr->v[0], normals) + b1 * vload3(tr->v[1], normals) + b2 * vload3(tr->v[2], normals);
-        float l2 = dot3(m, m);
-        if (l2 > 0.0f) ns = side * m * rsqrt(l2);
+        if (ts->flags & TRI_HAS_NORMALS) {
+            float b0 = 1.0f - h->b1 - h->b2;
+            ns_raw = b0 * vload3(ts->v[0], normals) + h->b1 * vload3(ts->v[1], normals)
+                   + h->b2 * vload3(ts->v[2], normals);
+            vertex_normal = dot3(ns_raw, ns_raw) > 0.0f;
+        }
+#endif
+    }
+#if TX_SPHERES
+    else if (kind == PRIM_SPHERE) {
+        __global const Sphere* sp = spheres + idx;
+        sphere_geom(sp, org, dir, h->t, &g);
+        material = sp->material; object = sp->object; prim = sp->prim;
     }
 #endif
-    __global const Material* m = materials + tr->material;
+#if TX_CYLINDERS
+    else if (kind == PRIM_CYLINDER) {
+        __global const Cylinder* cy = cylinders + idx;
+        cylinder_geom(cy, org, dir, h->t, &g);
+        material = cy->material; object = cy->object; prim = cy->prim;
+    }
+#endif
+#if TX_QUADS
+    else if (kind == PRIM_QUAD) {
+        __global const QuadShade* qs = quad_shade + idx;
+        quad_geom(quads + idx, qs, (float2)(h->b1, h->b2), &g);
+        material = qs->material; object = qs->object; prim = qs->prim;
+    }
+#endif
+    float side = dot3(g.ng, dir) > 0.0f ? -1.0f : 1.0f;   /* face the incoming ray */
+    float3 ng = side * g.ng;
+    float3 ns = vertex_normal ? side * normalize3(ns_raw) : ng;
+
+    __global const Material* m = materials + material;
     float3 kd = vload3(0, m->diffuse);
 #if TX_TEXTURES
-    if (m->diffuse_tex >= 0) {
-        float2 uv = (float2)(b1, b2);
-        if (tr->flags & TRI_HAS_UVS)
-            uv = b0 * vload2(tr->v[0], uvs) + b1 * vload2(tr->v[1], uvs) + b2 * vload2(tr->v[2], uvs);
-        kd *= texture_bilinear(texels, textures + m->diffuse_tex, uv).xyz;
-    }
+    if (m->diffuse_tex >= 0)
+        kd *= texture_bilinear(texels, textures + m->diffuse_tex, g.uv).xyz;
 #endif
-    vstore3(p, 0, s->p);
-    s->offset = dot3(abs3(ng), perr);
+    vstore3(g.p, 0, s->p);
+    s->offset = dot3(abs3(ng), g.perr);
     vstore3(ng, 0, s->ng);
     s->valid = 1u;
     vstore3(ns, 0, s->ns);
     s->shininess = m->shininess;
     vstore3(kd, 0, s->kd);
     vstore3(vload3(0, m->specular), 0, s->ks);
+#if TX_AOVS
+    if (aov) write_aovs(aov, gid, &g, ns, h->t * sqrt(dot3(dir, dir)), prim, object);
+#endif
 }

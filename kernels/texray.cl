@@ -4,7 +4,17 @@
  * timed alone (texray bench). */
 #include "common.h"
 #include "sampler.h"
+#include "geom.h"
 #include "triangle.h"
+#if TX_SPHERES
+#include "sphere.h"
+#endif
+#if TX_CYLINDERS
+#include "cylinder.h"
+#endif
+#if TX_QUADS
+#include "quad.h"
+#endif
 #include "bvh.h"
 #include "texture.h"
 #include "raygen.cl"

@@ -93,4 +93,43 @@ inline float3 tri_p0(__global const TriVerts* tr) { return ((__global const floa
 inline float3 tri_p1(__global const TriVerts* tr) { return ((__global const float4*)tr)[1].xyz; }
 inline float3 tri_p2(__global const TriVerts* tr) { return ((__global const float4*)tr)[2].xyz; }
 
+/* Surface geometry of a triangle hit (b1, b2): the lecture's barycentric form
+ * P = (1 - b1 - b2) P0 + b1 P1 + b2 P2 for the point and the texture
+ * coordinates; ng = normalize((P1 - P0) x (P2 - P0)), the side the vertex
+ * order gives. dP/du and dP/dv solve [dP/du dP/dv] [duv1 duv2] = [P1-P0 P2-P0]
+ * from the uv differences (pbrt-v4 Triangle::InteractionFromIntersection);
+ * when the uv triangle has (nearly) zero area they are an arbitrary
+ * orthonormal frame around ng, so that bump mapping never sees NaN. */
+inline void triangle_geom(__global const TriVerts* tv, __global const TriShade* ts, float b1, float b2,
+                          __global const float* uvs, Geom* g)
+{
+    float b0 = 1.0f - b1 - b2;
+    float3 p0 = tri_p0(tv), p1 = tri_p1(tv), p2 = tri_p2(tv);
+    float3 e1 = p1 - p0, e2 = p2 - p0;
+    g->p = b0 * p0 + b1 * p1 + b2 * p2;
+    /* Error bound of the interpolated point (pbrt-v4 6.8.5). */
+    g->perr = gamma_n(7.0f) * (abs3(b0 * p0) + abs3(b1 * p1) + abs3(b2 * p2));
+    g->ng = normalize3(cross3(e1, e2));
+    float2 uv0 = (float2)(0.0f, 0.0f), uv1 = (float2)(1.0f, 0.0f), uv2 = (float2)(0.0f, 1.0f);
+    if (uvs != 0 && (ts->flags & TRI_HAS_UVS)) {
+        uv0 = vload2(ts->v[0], uvs); uv1 = vload2(ts->v[1], uvs); uv2 = vload2(ts->v[2], uvs);
+    }
+    g->uv = b0 * uv0 + b1 * uv1 + b2 * uv2;
+    float2 d1 = uv1 - uv0, d2 = uv2 - uv0;
+    float det = d1.x * d2.y - d1.y * d2.x;
+    float scale = TX_MAX(TX_MAX(fabs(d1.x), fabs(d1.y)), TX_MAX(fabs(d2.x), fabs(d2.y)));
+    /* |det| below 1e-9 of the uv extent squared: the uv triangle is degenerate
+     * to float precision (its uv edges are parallel to ~1e-9 rad). */
+    if (fabs(det) > 1e-9f * scale * scale) {
+        float inv = 1.0f / det;
+        g->dpdu = (d2.y * e1 - d1.y * e2) * inv;
+        g->dpdv = (d1.x * e2 - d2.x * e1) * inv;
+    } else {
+        float3 n = g->ng;
+        float3 t = fabs(n.x) > fabs(n.z) ? (float3)(-n.y, n.x, 0.0f) : (float3)(0.0f, -n.z, n.y);
+        g->dpdu = normalize3(t);
+        g->dpdv = cross3(n, g->dpdu);
+    }
+}
+
 #endif

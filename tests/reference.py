@@ -67,7 +67,7 @@ def bilinear(rgba, uv):
 
 def render_reference(scene, width, height):
     """(rgb (H, W, 3) float64, prim id per pixel (H, W), visibility mask (H, W, L))."""
-    cs = compile_scene(scene, jitter=False)
+    cs = compile_scene(scene)
     tris = cs.tri_shade
     p0, p1, p2 = (cs.tri_verts[k].astype(np.float64) for k in ("p0", "p1", "p2"))
     org, d = camera_rays(scene, width, height)

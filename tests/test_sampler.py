@@ -11,7 +11,7 @@ from texray.features import Features, compile_options
 
 def _sample_positions(rt, spp, width=3, height=2, seed=7):
     """(spp, height*width, 2) sample positions inside their pixels, from the raygen kernel's rays."""
-    prg = rt.program(compile_options(Features(jitter=True)))
+    prg = rt.program(compile_options(Features()))
     cam = tx.Camera(eye=(0, 0, 0), look_at=(0, 0, -1), fov_y=90)
     eye, fwd, right, up = cam.basis(width / height)
     c = np.zeros(1, layout.CAMERA)
@@ -24,7 +24,7 @@ def _sample_positions(rt, spp, width=3, height=2, seed=7):
     k = cl.Kernel(prg, "raygen")
     u = np.uint32
     for s in range(spp):
-        k(rt.queue, (n,), None, rays, cam_buf, u(width), u(height), u(0), u(0), u(width), u(n), u(s), u(spp), u(seed))
+        k(rt.queue, (n,), None, rays, cam_buf, u(width), u(height), u(0), u(0), u(width), u(n), u(s), u(spp), u(seed), u(1))
         r = np.zeros(n, layout.RAY)
         cl.enqueue_copy(rt.queue, r, rays)
         d = r["dir"].astype(np.float64)

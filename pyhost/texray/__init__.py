@@ -9,9 +9,10 @@
 from .device import DeviceInfo, devices
 from .errors import BuildError, DeviceError, SceneError, TexrayError
 from .render import Image, render
-from .scene import Camera, Material, Mesh, PointLight, Scene, Texture
+from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sphere, Texture
 from .transform import Transform
 
-__all__ = ["BuildError", "Camera", "DeviceError", "DeviceInfo", "Image", "Material", "Mesh", "PointLight",
-           "Scene", "SceneError", "TexrayError", "Texture", "Transform", "devices", "render"]
+__all__ = ["BuildError", "Camera", "Cylinder", "DeviceError", "DeviceInfo", "Image", "Material", "Mesh",
+           "PointLight", "Quad", "Scene", "SceneError", "Sphere", "TexrayError", "Texture", "Transform", "devices",
+           "render"]
 __version__ = "0.1.0"

@@ -41,10 +41,17 @@ def _cmd_render(args):
     device = int(args.device) if args.device is not None and args.device.isdigit() else args.device
     bar = _Progress()
     try:
-        image = render(scene, width=width, height=height, spp=spp, device=device, seed=seed, progress=bar)
+        image = render(scene, width=width, height=height, spp=spp, device=device, seed=seed, progress=bar,
+                       aovs=tuple(args.aov or ()))
     finally:
         bar.close()
     image.save(args.output)
+    if args.aov and not args.output.lower().endswith(".exr"):
+        from pathlib import Path
+        aov_path = Path(args.output).with_suffix(".aov.exr")
+        from .imageio import write_exr_layers
+        write_exr_layers(aov_path, image.rgb, image.aov)
+        print(f"AOVs ({', '.join(args.aov)}) written to {aov_path}")
     s = image.stats
     print(f"{args.output}: {width}x{height}, {spp} spp, {s['triangles']} triangles on {s['device']}: "
           f"render {s['render_s']:.2f} s (program build {s['program_build_s']:.2f} s, "
@@ -76,6 +83,9 @@ def main(argv=None):
     r.add_argument("--spp", type=int, help="samples per pixel")
     r.add_argument("--seed", type=int)
     r.add_argument("--device", help="'cpu', 'gpu', an index from 'texray devices', or a name substring")
+    r.add_argument("--aov", action="append", metavar="NAME",
+                   help="also write this AOV (repeatable): uv, position, normal, shading_normal, depth, "
+                        "primitive_id, object_id, dpdu, dpdv; into OUT if it is .exr, else OUT.aov.exr")
     r.set_defaults(func=_cmd_render)
     d = sub.add_parser("devices", help="list OpenCL devices")
     d.set_defaults(func=_cmd_devices)

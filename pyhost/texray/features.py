@@ -11,7 +11,10 @@ class Features:
     vertex_normals: bool = False   # any mesh carries per-vertex shading normals
     specular: bool = False         # any material has ks > 0
     shadows: bool = True           # trace shadow rays (False: every light is visible)
-    jitter: bool = True            # jittered samples (False: pixel centres, for references)
+    spheres: bool = False          # primitive kinds present in the BVH (triangles are always compiled)
+    cylinders: bool = False
+    quads: bool = False
+    aovs: bool = False             # the surface stage writes AOVs
     stack_size: int = 64           # BVH traversal stack; >= the tree's depth
 
 
@@ -31,6 +34,9 @@ def compile_options(f: Features) -> dict[str, int]:
         "TX_VERTEX_NORMALS": int(f.vertex_normals),
         "TX_SPECULAR": int(f.specular),
         "TX_SHADOWS": int(f.shadows),
-        "TX_JITTER": int(f.jitter),
+        "TX_SPHERES": int(f.spheres),
+        "TX_CYLINDERS": int(f.cylinders),
+        "TX_QUADS": int(f.quads),
+        "TX_AOVS": int(f.aovs),
         "TX_STACK_SIZE": int(f.stack_size),
     }

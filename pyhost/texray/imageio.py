@@ -66,3 +66,28 @@ def write_image(path, rgb):
     out.close()
     if not ok:
         raise SceneError(f"output: writing {path} failed: {out.geterror()}")
+
+
+def write_exr_layers(path, rgb, aovs):
+    """One float32 EXR holding R, G, B and every AOV as channels named ``name.x``/``.y``/``.z``
+    (``uv.u``, ``uv.v``; one-channel AOVs by their name)."""
+    import OpenImageIO as oiio
+    path = Path(path)
+    names, planes = ["R", "G", "B"], [np.asarray(rgb, np.float32)]
+    for name, a in aovs.items():
+        a = np.asarray(a, np.float32)
+        a = a[:, :, None] if a.ndim == 2 else a
+        suffix = {1: [""], 2: [".u", ".v"], 3: [".x", ".y", ".z"]}[a.shape[2]]
+        names += [name + sfx for sfx in suffix]
+        planes.append(a)
+    data = np.ascontiguousarray(np.concatenate(planes, axis=2))
+    h, w, c = data.shape
+    spec = oiio.ImageSpec(w, h, c, "float")
+    spec.channelnames = tuple(names)
+    out = oiio.ImageOutput.create(str(path))
+    if out is None or not out.open(str(path), spec):
+        raise SceneError(f"output: cannot open {path} for writing: {oiio.geterror()}")
+    ok = out.write_image(data)
+    out.close()
+    if not ok:
+        raise SceneError(f"output: writing {path} failed: {out.geterror()}")

@@ -140,6 +140,17 @@ SURFACE = np.dtype([
     ("ks", "<f4", (3,)), ("pad1", "<f4"),
 ])
 
+# Hit.prim packs the primitive kind above the index of that kind's array.
+HIT_KIND_SHIFT = 28
+HIT_INDEX_MASK = (1 << HIT_KIND_SHIFT) - 1
+
+# AOVs: name -> (first channel, channels) in the surface stage's per-ray AOV record.
+AOVS = {
+    "uv": (0, 2), "position": (2, 3), "normal": (5, 3), "shading_normal": (8, 3), "depth": (11, 1),
+    "primitive_id": (12, 1), "object_id": (13, 1), "dpdu": (14, 3), "dpdv": (17, 3),
+}
+AOV_FLOATS = 20
+
 STRUCTS = {
     "BVHNode": BVH_NODE, "TriVerts": TRI_VERTS, "TriShade": TRI_SHADE,
     "Sphere": SPHERE, "Cylinder": CYLINDER, "QuadVerts": QUAD_VERTS, "QuadShade": QUAD_SHADE, "Material": MATERIAL,
@@ -152,7 +163,9 @@ _C_TYPES = {np.dtype("<f4"): "float", np.dtype("<u4"): "uint", np.dtype("<i4"): 
 CONSTANTS = {
     "LEAF_COUNT_BITS": LEAF_COUNT_BITS, "LEAF_COUNT_MASK": LEAF_COUNT_MASK,
     "PRIM_TRIANGLE": PRIM_TRIANGLE, "PRIM_SPHERE": PRIM_SPHERE, "PRIM_CYLINDER": PRIM_CYLINDER,
-    "PRIM_QUAD": PRIM_QUAD, "TRI_HAS_NORMALS": TRI_HAS_NORMALS,
+    "PRIM_QUAD": PRIM_QUAD, "HIT_KIND_SHIFT": HIT_KIND_SHIFT, "HIT_INDEX_MASK": HIT_INDEX_MASK,
+    "AOV_FLOATS": AOV_FLOATS, **{f"AOV_{k.upper()}": v[0] for k, v in AOVS.items()},
+    "TRI_HAS_NORMALS": TRI_HAS_NORMALS,
     "TRI_HAS_UVS": TRI_HAS_UVS,
 }
 

@@ -234,6 +234,137 @@ class Mesh:
         return apply_points(m, self.positions), n
 
 
+def _frame(z_axis, x_axis, where):
+    """Orthonormal (x, y, z) from a z axis and an x direction (Gram-Schmidt)."""
+    z = _vec3(z_axis, "axis_z", where)
+    x = _vec3(x_axis, "axis_x", where)
+    if np.linalg.norm(z) == 0:
+        raise SceneError(f"{where}axis_z: must not be zero, got {z_axis!r}")
+    z = z / np.linalg.norm(z)
+    x = x - z * (x @ z)
+    if np.linalg.norm(x) <= 1e-9 * max(np.linalg.norm(_vec3(x_axis, "axis_x", where)), 1e-300):
+        raise SceneError(f"{where}axis_x: {x_axis!r} is parallel to axis_z {z_axis!r} (or zero)")
+    x = x / np.linalg.norm(x)
+    return x, np.cross(z, x), z
+
+
+def _similarity(transform, where):
+    """(matrix, uniform scale) of a transform; analytic shapes need a uniform scale."""
+    if transform is None:
+        return np.eye(4), 1.0
+    m = transform.matrix(where + "transform.")
+    s = np.linalg.svd(m[:3, :3], compute_uv=False)
+    if not np.allclose(s, s[0], rtol=1e-9):
+        raise SceneError(f"{where}transform.scale: {transform.scale!r}: spheres and cylinders take a "
+                         "uniform scale only")
+    return m, float(s[0])
+
+
+def _check_material(m, where):
+    if not isinstance(m, Material):
+        raise SceneError(f"{where}material: expected a texray.Material, got {type(m).__name__}")
+    m.validate(f"{where}material.")
+
+
+@dataclass
+class Sphere:
+    """A sphere with the lecture's parameterization: theta (polar, from axis_z) and
+    phi (azimuth, from axis_x toward axis_z x axis_x); texture uv = (phi/2pi, 1 - theta/pi).
+    A radius <= 0 is an error."""
+    center: tuple = (0.0, 0.0, 0.0)
+    radius: float = 1.0
+    material: Material = field(default_factory=Material)
+    axis_z: tuple = (0.0, 0.0, 1.0)
+    axis_x: tuple = (1.0, 0.0, 0.0)
+    transform: Transform | None = None
+    name: str = "<sphere>"
+
+    def __post_init__(self):
+        self.world()
+
+    def world(self):
+        """(center, radius, x, z) in world space, float64."""
+        where = f"{self.name}: "
+        m, k = _similarity(self.transform, where)
+        c = _vec3(self.center, "center", where)
+        r = _number(self.radius, "radius", where, 0.0, lo_open=True)
+        x, _, z = _frame(self.axis_z, self.axis_x, where)
+        rot = m[:3, :3] / k
+        _check_material(self.material, where)
+        return apply_points(m, c[None])[0], r * k, rot @ x, rot @ z
+
+
+@dataclass
+class Cylinder:
+    """The lecture's partial open cylinder: radius r around axis_z through origin,
+    z in z_range, theta in theta_range (degrees, from axis_x); texture
+    uv = ((theta - theta_min) / (theta_max - theta_min), (z - z_min) / (z_max - z_min)).
+    An empty z or theta range is an error."""
+    radius: float = 1.0
+    z_range: tuple = (0.0, 1.0)
+    theta_range: tuple = (0.0, 360.0)
+    origin: tuple = (0.0, 0.0, 0.0)
+    axis_z: tuple = (0.0, 0.0, 1.0)
+    axis_x: tuple = (1.0, 0.0, 0.0)
+    material: Material = field(default_factory=Material)
+    transform: Transform | None = None
+    name: str = "<cylinder>"
+
+    def __post_init__(self):
+        self.world()
+
+    def world(self):
+        """(origin, radius, x, z, (z_min, z_max), (theta_min, theta_max) radians) in world space."""
+        where = f"{self.name}: "
+        m, k = _similarity(self.transform, where)
+        r = _number(self.radius, "radius", where, 0.0, lo_open=True)
+        zr = np.asarray(self.z_range, dtype=np.float64)
+        tr = np.asarray(self.theta_range, dtype=np.float64)
+        if zr.shape != (2,) or not np.all(np.isfinite(zr)) or not zr[0] < zr[1]:
+            raise SceneError(f"{where}z_range: expected [z_min, z_max] with z_min < z_max, got {self.z_range!r}")
+        if tr.shape != (2,) or not np.all(np.isfinite(tr)) or not tr[0] < tr[1] or tr[1] - tr[0] > 360:
+            raise SceneError(f"{where}theta_range: expected [min, max] degrees with min < max <= min + 360, "
+                             f"got {self.theta_range!r}")
+        x, _, z = _frame(self.axis_z, self.axis_x, where)
+        o = _vec3(self.origin, "origin", where)
+        rot = m[:3, :3] / k
+        _check_material(self.material, where)
+        return apply_points(m, o[None])[0], r * k, rot @ x, rot @ z, tuple(zr * k), tuple(np.radians(tr))
+
+
+@dataclass
+class Quad:
+    """A bilinear patch P(u,v) = (1-u)(1-v)P0 + u(1-v)P1 + uv P2 + (1-u)v P3, planar or not.
+    uvs: texture coordinates of P0..P3, interpolated bilinearly (default: (u, v) itself).
+    A quad of zero area is an error."""
+    p0: tuple
+    p1: tuple
+    p2: tuple
+    p3: tuple
+    material: Material = field(default_factory=Material)
+    uvs: tuple = ((0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0))
+    transform: Transform | None = None
+    name: str = "<quad>"
+
+    def __post_init__(self):
+        self.world()
+
+    def world(self):
+        """((4, 3) corners, (4, 2) uvs) in world space, float64."""
+        where = f"{self.name}: "
+        p = np.stack([_vec3(v, f"p{i}", where) for i, v in enumerate((self.p0, self.p1, self.p2, self.p3))])
+        uv = np.asarray(self.uvs, dtype=np.float64)
+        if uv.shape != (4, 2) or not np.all(np.isfinite(uv)):
+            raise SceneError(f"{where}uvs: expected 4 finite (u, v) pairs, got {self.uvs!r}")
+        if self.transform is not None:
+            p = apply_points(self.transform.matrix(where + "transform."), p)
+        area = np.linalg.norm(np.cross(p[1] - p[0], p[3] - p[0])) + np.linalg.norm(np.cross(p[2] - p[1], p[3] - p[2]))
+        if area == 0:
+            raise SceneError(f"{where}p0..p3: the quad has zero area: {p.tolist()}")
+        _check_material(self.material, where)
+        return p, uv
+
+
 def _flatten(loaded):
     """[(positions, faces, uvs | None, normals | None)] of every triangle geometry in a
     trimesh load result, with scene-graph transforms applied; nothing is merged or dropped.
@@ -277,8 +408,8 @@ class Scene:
     objects: list = field(default_factory=list)
 
     def add(self, obj):
-        if not isinstance(obj, Mesh):
-            raise SceneError(f"scene.add: expected a texray.Mesh, got {type(obj).__name__}")
+        if not isinstance(obj, (Mesh, Sphere, Cylinder, Quad)):
+            raise SceneError(f"scene.add: expected a texray Mesh, Sphere, Cylinder or Quad, got {type(obj).__name__}")
         self.objects.append(obj)
         return obj
 

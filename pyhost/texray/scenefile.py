@@ -14,7 +14,7 @@ except ModuleNotFoundError:        # Python < 3.11
     import tomli as tomllib
 
 from .errors import SceneError
-from .scene import Camera, Material, Mesh, PointLight, Scene, Texture
+from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sphere, Texture
 from .transform import Transform
 
 _NUM = (int, float)
@@ -28,9 +28,20 @@ _SCHEMA = {
     "lights": {"position": _VEC, "intensity": _VEC},
     "textures": {"file": str, "colorspace": str},
     "materials": {"diffuse": (str, list), "tint": _VEC, "specular": (int, float, list), "shininess": _NUM},
-    "objects": {"mesh": str, "material": str, "translate": _VEC, "rotate": _VEC, "scale": (int, float, list)},
+    "objects": {"type": str, "material": str, "translate": _VEC, "rotate": _VEC, "scale": (int, float, list),
+                "mesh": str,                                                   # type = "mesh"
+                "center": _VEC, "radius": _NUM, "axis_z": _VEC, "axis_x": _VEC,   # "sphere", "cylinder"
+                "z_range": _VEC, "theta_range": _VEC, "origin": _VEC,          # "cylinder"
+                "p0": _VEC, "p1": _VEC, "p2": _VEC, "p3": _VEC, "uvs": _VEC},  # "quad"
 }
-_REQUIRED = {"lights": ("position",), "textures": ("file",), "objects": ("mesh",)}
+_REQUIRED = {"lights": ("position",), "textures": ("file",)}
+# Keys each object type takes besides type, material and the transform; the first ones are required.
+_OBJECT_KEYS = {
+    "mesh": (("mesh",), ()),
+    "sphere": ((), ("center", "radius", "axis_z", "axis_x")),
+    "cylinder": ((), ("radius", "z_range", "theta_range", "origin", "axis_z", "axis_x")),
+    "quad": (("p0", "p1", "p2", "p3"), ("uvs",)),
+}
 
 
 def _check_table(table, kind, where):
@@ -107,19 +118,37 @@ def _build(doc, base, path):
     eye_where = "camera."
     scene.camera.basis(1.0, eye_where)
     for i, ob in enumerate(doc.get("objects", [])):
-        where = f"objects[{i}]"
-        _check_table(ob, "objects", where)
-        mat_name = ob.get("material")
-        if mat_name is not None and mat_name not in materials:
-            raise SceneError(f"{where}.material: no material named {mat_name!r} "
-                             f"(defined: {', '.join(materials) or 'none'})")
-        tf = Transform(**{k: ob[k] for k in ("translate", "rotate", "scale") if k in ob})
-        tf.matrix(where + ".")
-        mesh_path = base / ob["mesh"]
-        try:
-            mesh = Mesh.load(mesh_path, material=materials.get(mat_name, Material()), transform=tf)
-        except SceneError as e:
-            raise SceneError(f"{where}.mesh: {e}") from None
-        scene.add(mesh)
+        scene.add(_object(ob, f"objects[{i}]", materials, base))
     scene.render_settings = dict(settings)
     return scene
+
+
+def _object(ob, where, materials, base):
+    _check_table(ob, "objects", where)
+    kind = ob.get("type", "mesh")
+    if kind not in _OBJECT_KEYS:
+        raise SceneError(f"{where}.type: expected one of {', '.join(_OBJECT_KEYS)}, got {kind!r}")
+    required, optional = _OBJECT_KEYS[kind]
+    for key in required:
+        if key not in ob:
+            raise SceneError(f"{where}: missing required key {key!r} for type {kind!r}")
+    common = {"type", "material", "translate", "rotate", "scale"}
+    for key in ob:
+        if key not in common and key not in required and key not in optional:
+            raise SceneError(f"{where}.{key}: not a key of type {kind!r} (allowed: "
+                             f"{', '.join(sorted(common | set(required) | set(optional)))})")
+    mat_name = ob.get("material")
+    if mat_name is not None and mat_name not in materials:
+        raise SceneError(f"{where}.material: no material named {mat_name!r} "
+                         f"(defined: {', '.join(materials) or 'none'})")
+    material = materials.get(mat_name, Material())
+    tf = Transform(**{k: ob[k] for k in ("translate", "rotate", "scale") if k in ob})
+    tf.matrix(where + ".")
+    args = {k: ob[k] for k in required + optional if k in ob}
+    try:
+        if kind == "mesh":
+            return Mesh.load(base / ob["mesh"], material=material, transform=tf)
+        cls = {"sphere": Sphere, "cylinder": Cylinder, "quad": Quad}[kind]
+        return cls(material=material, transform=tf, name=where, **args)
+    except SceneError as e:
+        raise SceneError(f"{where}.mesh: {e}" if kind == "mesh" else str(e)) from None

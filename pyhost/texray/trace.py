@@ -50,8 +50,7 @@ class Tracer:
         n, rays = self._rays(org, dirs, tmin, tmax)
         out = np.zeros(n, layout.HIT)
         hits = cl.Buffer(self.rt.context, cl.mem_flags.WRITE_ONLY, max(out.nbytes, 16))
-        ev = self._k_closest(self.rt.queue, (n,), None, rays, hits, np.uint32(n),
-                                    self.up.nodes, self.up.nnodes, self.up.tris)
+        ev = self._k_closest(self.rt.queue, (n,), None, rays, hits, np.uint32(n), *self.up.geom)
         cl.enqueue_copy(self.rt.queue, out, hits, wait_for=[ev])
         prim = out["prim"].astype(np.int64)
         prim[out["prim"] == 0xFFFFFFFF] = -1
@@ -62,7 +61,6 @@ class Tracer:
         n, rays = self._rays(org, dirs, tmin, tmax)
         out = np.zeros(n, np.uint8)
         buf = cl.Buffer(self.rt.context, cl.mem_flags.WRITE_ONLY, max(n, 16))
-        ev = self._k_any(self.rt.queue, (n,), None, rays, buf, np.uint32(n),
-                                   self.up.nodes, self.up.nnodes, self.up.tris)
+        ev = self._k_any(self.rt.queue, (n,), None, rays, buf, np.uint32(n), *self.up.geom)
         cl.enqueue_copy(self.rt.queue, out, buf, wait_for=[ev])
         return out.astype(bool), (ev.profile.end - ev.profile.start) * 1e-9

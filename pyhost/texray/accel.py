@@ -1,0 +1,66 @@
+"""The scene's one BVH over primitives of several kinds.
+
+Each kind (triangles, spheres, cylinders, quads) gets its own binned-SAH tree
+(:func:`texray.bvh.build`, leaves homogeneous in kind); when there are several,
+a small top tree over their root boxes joins them into one node array. A top
+leaf is replaced by the root it stands for, so traversal sees an ordinary
+binary tree whose leaves carry their kind in ``count_kind``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import bvh
+from .layout import BVH_NODE
+
+
+@dataclass
+class SceneBVH:
+    nodes: np.ndarray             # BVH_NODE, root at 0
+    orders: dict                  # kind -> uint32 leaf order of that kind's primitives
+    sah_cost: float
+    depth: int
+    build_seconds: float
+
+
+def build_scene_bvh(boxes: dict) -> SceneBVH:
+    """boxes: kind -> (lo, hi) float32 (n, 3) primitive bounds; kinds with n == 0 are left out."""
+    subs = {k: bvh.build(lo, hi, kind=k) for k, (lo, hi) in boxes.items() if len(lo)}
+    seconds = sum(s.build_seconds for s in subs.values())
+    if not subs:
+        return SceneBVH(np.zeros(0, BVH_NODE), {}, 0.0, 0, seconds)
+    orders = {k: s.order for k, s in subs.items()}
+    if len(subs) == 1:
+        (s,) = subs.values()
+        return SceneBVH(s.nodes, orders, s.sah_cost, s.depth, seconds)
+    kinds = list(subs)
+    roots = np.stack([subs[k].nodes[0] for k in kinds])
+    top = bvh.build(roots["bmin"], roots["bmax"], max_leaf=1)
+    parts, offset, offsets = [top.nodes.copy()], len(top.nodes), {}
+    for k in kinds:
+        n = subs[k].nodes.copy()
+        interior = n["count_kind"] == 0
+        n["first"][interior] += offset
+        offsets[k] = offset
+        parts.append(n)
+        offset += len(n)
+    nodes = np.concatenate(parts)
+    top_leaves = np.flatnonzero(top.nodes["count_kind"] != 0)
+    for j in top_leaves:                      # one per kind: a handful of iterations
+        k = kinds[top.order[top.nodes["first"][j]]]
+        nodes[j] = nodes[offsets[k]]
+    depth = top.depth - 1 + max(s.depth for s in subs.values())
+    # SAH of the joined tree: the top's interior nodes plus each subtree's cost, rescaled
+    # from its root's area to the joined root's (the subtrees' original root records stay
+    # in the array, unreferenced, so the cost is not summed over the array).
+    area = _area(top.nodes)
+    cost = float(area[top.nodes["count_kind"] == 0].sum())
+    cost += sum(subs[k].sah_cost * _area(subs[k].nodes[:1])[0] for k in kinds)
+    return SceneBVH(nodes, orders, cost / area[0] if area[0] > 0 else cost, depth, seconds)
+
+
+def _area(nodes):
+    e = nodes["bmax"].astype(np.float64) - nodes["bmin"].astype(np.float64)
+    return e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
