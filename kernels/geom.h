@@ -1,17 +1,16 @@
 #line 2 "geom.h"
-/* What the surface stage needs about a hit on an analytic primitive (sphere,
- * cylinder, bilinear quad), and the error-free arithmetic their intersection
- * routines share.
+/* What the surface stage needs about a hit, and the accurate arithmetic the
+ * analytic primitives (sphere.h, cylinder.h, quad.h) share.
  *
  * Error-free transformations: Knuth's TwoSum (TAOCP vol. 2, 4.2.2) and
- * Kahan's difference of products with an FMA (analysed by Jeannerod, Louvet
- * and Muller, "Further analysis of Kahan's algorithm for the accurate
- * computation of 2x2 determinants", Math. Comp. 82, 2013: relative error at
- * most 2u), as pbrt-v4 uses them (Pharr, Jakob, Humphreys, "Physically Based
- * Rendering", 4th ed., B.2.9). OpenCL's fma() is correctly rounded on every
- * conforming device. These rely on IEEE evaluation: a build with
- * -cl-unsafe-math-optimizations (or -cl-fast-relaxed-math) may fold the
- * rounding-error terms to zero, which leaves plain float32 accuracy. */
+ * Kahan's difference of products with an FMA (Jeannerod, Louvet, Muller,
+ * "Further analysis of Kahan's algorithm for the accurate computation of 2x2
+ * determinants", Math. Comp. 82, 2013: relative error at most 2u), as pbrt-v4
+ * uses them (Pharr, Jakob, Humphreys, "Physically Based Rendering", 4th ed.,
+ * B.2.9). OpenCL's fma() is correctly rounded on every conforming device.
+ * Both rely on IEEE evaluation order: a build with -cl-unsafe-math-optimizations
+ * (or -cl-fast-relaxed-math) may fold their error terms to zero, which leaves
+ * plain float32 accuracy, never a wrong sign or a NaN. */
 #ifndef TEXRAY_GEOM_H
 #define TEXRAY_GEOM_H
 
@@ -19,22 +18,18 @@ typedef struct {            /* what the surface stage needs about a hit, in worl
     float3 p;               /* the hit point, on the surface */
     float3 ng;              /* unit geometric normal: outward for sphere/cylinder (away from the
                              * centre/axis); for the quad normalize(dP/du x dP/dv) of the bilinear
-                             * parameters, i.e. the (P1-P0)x(P3-P0) side */
+                             * parameters, the (P1-P0)x(P3-P0) side */
     float3 dpdu, dpdv;      /* dP/du, dP/dv with respect to the texture coordinates uv below */
-    float2 uv;              /* texture coordinates (see sphere.h, cylinder.h, quad.h) */
+    float2 uv;              /* texture coordinates (conventions in sphere.h, cylinder.h, quad.h) */
     float3 perr;            /* per-component absolute error bound of p (offset secondary rays along ng) */
 } Geom;
 
-#define TX_PI 3.14159265358979f
-#define TX_TWO_PI 6.28318530717959f
-#define TX_INV_TWO_PI 0.159154943091895f
-
-/* a * b - c * d with relative error <= 2u (Kahan's algorithm, see above):
- * no cancellation even when the two products nearly agree. */
+/* a * b - c * d with relative error <= 2u (Kahan's algorithm): no
+ * cancellation even where the two products nearly agree. */
 inline float tx_diff_prod(float a, float b, float c, float d)
 {
     float cd = c * d;
-    float err = fma(-c, d, cd);        /* exactly cd - c*d */
+    float err = fma(-c, d, cd);        /* exactly cd - c * d */
     return fma(a, b, -cd) + err;
 }
 
@@ -46,13 +41,23 @@ inline float3 tx_cross_accurate(float3 a, float3 b)
                     tx_diff_prod(a.x, b.y, a.y, b.x));
 }
 
-/* a - b = *hi + *lo exactly (TwoSum, branch-free: six additions per component). */
+/* a - b = *hi + *lo exactly, per component (TwoSum: six additions, no branch). */
 inline void tx_two_diff3(float3 a, float3 b, float3* hi, float3* lo)
 {
     float3 s = a - b;
     float3 bb = s - a;                 /* the part of -b that made it into s */
     *lo = (a - (s - bb)) + (-b - bb);
     *hi = s;
+}
+
+/* v / |v| without overflow or underflow at any scale (v is first divided by
+ * its largest component); `fallback` where v is zero or not finite. */
+inline float3 tx_unit_or(float3 v, float3 fallback)
+{
+    float m = TX_MAX(TX_MAX(fabs(v.x), fabs(v.y)), fabs(v.z));
+    if (!(m > 0.0f && m <= FLT_MAX)) return fallback;
+    v = v * (1.0f / m);
+    return v * rsqrt(dot3(v, v));
 }
 
 #endif

@@ -56,11 +56,12 @@ inline float wrap_reduce(float u, int mode)
     return u - floor(u);
 }
 
-/* Coordinate for nearest lookups: u' in [0, 1] such that texel
- * min((int)(u' * n), n - 1) is the texel the wrapped u falls in (wrap_nearest).
- * u' = 1 only where the true texel is the last one (clamp u >= 1, mirror at an
- * odd integer, repeat for u in (-2^-25, 0) where u - floor(u) rounds to 1).
- * NaN -> 0. */
+/* Coordinate for nearest lookups: u' in [0, 1], the wrapped u (NaN -> 0).
+ * Texel min((int)(u' * n), n - 1) is the one the wrapped u falls in, except
+ * exactly on a texel boundary inside a mirrored period, where the reflection
+ * picks the neighbour; wrap_nearest is exact there too. u' = 1 only for clamp
+ * u >= 1, mirror at odd integers, and repeat u in (-2^-25, 0), where
+ * u - floor(u) rounds to 1 (the last texel, as it should be). */
 inline float wrap_coord(float u, int mode)
 {
     if (isnan(u)) return 0.0f;
@@ -69,12 +70,18 @@ inline float wrap_coord(float u, int mode)
     return (mode == TX_WRAP_MIRROR && r > 1.0f) ? 2.0f - r : r;
 }
 
-/* Nearest texel index in [0, n-1] of coordinate u (columns; see above for rows). */
+/* Nearest texel index in [0, n-1] of coordinate u: wrap_index(floor(u * n)),
+ * computed without overflow (columns; for rows see above). */
 inline int wrap_nearest(float u, int n, int mode)
 {
     if (n <= 1) return 0;
-    int i = (int)(wrap_coord(u, mode) * (float)n);   /* in [0, n]: no overflow */
-    return i < n ? i : n - 1;
+    if (mode == TX_WRAP_MIRROR) {
+        /* index in the reduced period [0, 2], then reflected: exact on boundaries */
+        int i = (int)(wrap_reduce(u, mode) * (float)n);      /* in [0, 2n] */
+        return wrap_index(i, n, mode);                       /* 2n (u just below 0) -> 0 */
+    }
+    int i = (int)(wrap_coord(u, mode) * (float)n);           /* in [0, n] */
+    return i < n ? i : n - 1;                                /* n: u = 1 (clamp) or u -> 0- (repeat) */
 }
 
 #endif

@@ -93,6 +93,8 @@ def textures():
         "checker.png": (proc.checker(s, n_checks=8), "sRGB"),
         "bricks.png": (proc.bricks(s, seed=3), "sRGB"),
         "bricks_height.png": (proc.bricks_height(s, seed=3), "linear"),
+        "globe.png": (proc.globe((512, 1024)), "sRGB"),
+        "label.png": (proc.label((256, 512)), "sRGB"),
     }
 
 

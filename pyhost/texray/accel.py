@@ -37,7 +37,7 @@ def build_scene_bvh(boxes: dict) -> SceneBVH:
         return SceneBVH(s.nodes, orders, s.sah_cost, s.depth, seconds)
     kinds = list(subs)
     roots = np.stack([subs[k].nodes[0] for k in kinds])
-    top = bvh.build(roots["bmin"], roots["bmax"], max_leaf=1)
+    top = bvh.build(roots["bmin"], roots["bmax"], max_leaf=1, sah_leaf_max=1)   # one subtree per top leaf
     parts, offset, offsets = [top.nodes.copy()], len(top.nodes), {}
     for k in kinds:
         n = subs[k].nodes.copy()

@@ -164,12 +164,12 @@ def _check_boxes(bmin, bmax):
         raise ValueError(f"bmin and bmax shapes differ: {lo.shape} vs {hi.shape}")
     lo, hi = _to_float32(lo, -np.inf), _to_float32(hi, np.inf)
     for name, a in (("bmin", lo), ("bmax", hi)):
-        bad = ~np.isfinite(a).all(axis=1)
-        if bad.any():
+        if not np.isfinite(a).all():
+            bad = ~np.isfinite(a).all(axis=1)
             raise ValueError(f"{name} has NaN or infinite values (or values beyond float32 "
                              f"range) in {bad.sum()} boxes, first at index {bad.argmax()}")
-    bad = (lo > hi).any(axis=1)
-    if bad.any():
+    if (lo > hi).any():
+        bad = (lo > hi).any(axis=1)
         raise ValueError(f"bmin > bmax in {bad.sum()} boxes, first at index {bad.argmax()}")
     return lo, hi
 

@@ -508,3 +508,50 @@ def tiles(size=512, n=6, grout=0.06, bevel=0.05, seed=0,
     :func:`bricks` layout without offset. Tileable."""
     return bricks(size, n, n, mortar=grout, bevel=bevel, seed=seed, offset=0.0,
                   brick=tile, mortar_color=grout_color, variation=variation)
+
+
+def globe(size=(512, 1024), seed=5, sea_level=0.52):
+    """An invented planet as an equirectangular map, (H, W, 3) float32: longitude
+    along columns (phi = 0 at the left edge), the north pole on the top row.
+    Continents from fractal noise (land above ``sea_level``), shading by height,
+    polar ice, and a graticule every 30 degrees so that mapping errors show."""
+    h, w = _hw(size)
+    x, y = _pixel_coords(h, w)
+    height = _fbm(h, w, (3, 6), 6, seed)
+    lat = (0.5 - y) * np.pi                                 # +pi/2 at the top row
+    land = height > sea_level
+    depth = np.clip((sea_level - height) / sea_level, 0, 1)
+    sea = _mix((0.05, 0.25, 0.55), (0.01, 0.06, 0.25), depth ** 0.7)
+    relief = np.clip((height - sea_level) / (1 - sea_level), 0, 1)
+    ground = _mix((0.20, 0.45, 0.15), (0.55, 0.42, 0.25), np.clip(relief * 2.2, 0, 1))
+    rgb = np.where(land[..., None], ground, sea)
+    ice = np.abs(lat) > np.radians(72) - 0.15 * (height - 0.5)
+    rgb = np.where(ice[..., None], 0.92, rgb)
+    lon_deg, lat_deg = x * 360.0, np.degrees(lat)
+    near = lambda v, step, width: np.abs(((v + step / 2) % step) - step / 2) < width
+    grid = near(lon_deg, 30.0, 0.35 * 720 / w) | near(lat_deg + 0 * lon_deg, 30.0, 0.35 * 360 / h)
+    rgb = np.where(grid[..., None], rgb * 0.55 + 0.45, rgb)
+    return _as_texture(rgb[..., 0], rgb[..., 1], rgb[..., 2])
+
+
+def label(size=(256, 512), seed=2, color=(0.85, 0.12, 0.1), ink=(0.98, 0.95, 0.85)):
+    """A can label, (H, W, 4) float32 RGBA: a coloured band with a ring emblem,
+    stripes and a border; alpha is 1 inside the band's rounded rectangle and 0
+    outside, for the lecture's 'texture used as a label'."""
+    h, w = _hw(size)
+    x, y = _pixel_coords(h, w)
+    x, y = x + 0 * y, y + 0 * x
+    rgb = _mix(color, np.multiply(color, 0.6), np.clip((np.abs(y - 0.5) - 0.3) * 5, 0, 1))
+    cx, cy = 0.5, 0.5
+    r = np.hypot((x - cx) * w / h, y - cy)
+    emblem = (np.abs(r - 0.28) < 0.03) | (r < 0.12) | ((np.abs(r - 0.2) < 0.012))
+    stripes = (np.abs(y - 0.15) < 0.02) | (np.abs(y - 0.85) < 0.02)
+    ink_mask = emblem | stripes
+    rgb = np.where(ink_mask[..., None], np.asarray(ink), rgb)
+    grain = _fbm(h, w, (4, 8), 4, seed)
+    rgb = rgb * (0.9 + 0.2 * grain)[..., None]
+    inset = 0.04
+    qx = np.maximum(np.abs(x - 0.5) - (0.5 - 2 * inset), 0) * w / h
+    qy = np.maximum(np.abs(y - 0.5) - (0.5 - 2 * inset), 0)
+    alpha = (np.hypot(qx, qy) < inset).astype(np.float64)
+    return _as_texture(rgb[..., 0], rgb[..., 1], rgb[..., 2], alpha)

@@ -1,0 +1,145 @@
+#line 2 "quad.h"
+/* Ray/bilinear patch intersection and the patch's texture mapping.
+ *
+ * The patch (the lecture's quadrilateral) is
+ *     P(u, v) = (1-u)(1-v) P0 + u(1-v) P1 + uv P2 + (1-u)v P3,  (u, v) in [0, 1]^2,
+ * possibly non-planar, twisted or degenerate.
+ *
+ * Intersection: Reshetov, "Cool Patches: A Geometric Approach to Ray/Bilinear
+ * Patch Intersections" (Ray Tracing Gems, ch. 8, 2019), as in pbrt-v4's
+ * IntersectBilinearPatch. For each u the segment from P(u, 0) to P(u, 1) lies on
+ * a line; the ray meets that line where the signed volume
+ *     f(u) = ((pa(u) - org) x dir) . pb(u),  pa(u) = lerp(P0, P1, u), pb(u) = lerp(P3 - P0, P2 - P1, u)
+ * vanishes, a quadratic c2 u^2 + c1 u + c0 (c0 = f(0), c0 + c1 + c2 = f(1),
+ * c2 = ((P1 - P0) x (P3 - P2)) . dir). For each root u in [0, 1] the closest
+ * points of the ray and the line give t and v. Everything is relative to the
+ * ray origin (so a patch far from the world origin costs nothing when the ray
+ * starts near it). Degenerate cases need no branch: a parallelogram or
+ * trapezoid has c2 = 0, where the stable pair of roots u = q / c2, c0 / q
+ * (q = -(c1 + sign(c1) sqrt(disc)) / 2) gives one infinite root (rejected) and
+ * the linear one; c2 = c1 = 0 or a ray parallel to the line (|dir x pb| = 0)
+ * give NaN or infinite values that every range test rejects. The discriminant
+ * uses Kahan's FMA difference of products (geom.h) so that nearly double roots
+ * (rays near the patch's silhouette) keep their accuracy. */
+#ifndef TEXRAY_QUAD_H
+#define TEXRAY_QUAD_H
+
+/* QuadVerts is four float4 (xyz, pad): aligned loads. */
+inline float3 quad_p0(__global const QuadVerts* q) { return ((__global const float4*)q)[0].xyz; }
+inline float3 quad_p1(__global const QuadVerts* q) { return ((__global const float4*)q)[1].xyz; }
+inline float3 quad_p2(__global const QuadVerts* q) { return ((__global const float4*)q)[2].xyz; }
+inline float3 quad_p3(__global const QuadVerts* q) { return ((__global const float4*)q)[3].xyz; }
+
+/* The (v, t) of root u (Reshetov's listing 8-1): the ray org + t dir meets the
+ * line pa + v pb (relative to org) where t = ((dir x pb) x pa) . pb / |dir x pb|^2
+ * and v = ((dir x pb) x pa) . dir / |dir x pb|^2. Returns 1 and updates *best
+ * (t, u, v) when u and v are in [0, 1] and t in (tmin, best.t). */
+inline int quad_try_root(float u, float3 q00, float3 q10, float3 e00, float3 e11, float3 dir,
+                         float tmin, float t_floor, float3* best)
+{
+    if (!(u >= 0.0f && u <= 1.0f)) return 0;
+    float3 pa = q00 + u * (q10 - q00);
+    float3 pb = e00 + u * (e11 - e00);
+    float3 n = cross3(dir, pb);
+    float det = dot3(n, n);
+    float3 m = cross3(n, pa);
+    float tn = dot3(m, pb), vn = dot3(m, dir);
+    if (!(det > 0.0f && vn >= 0.0f && vn <= det)) return 0;
+    float t = tn / det;
+    if (!(t > tmin && t > t_floor && t < best->x)) return 0;
+    *best = (float3)(t, u, vn / det);
+    return 1;
+}
+
+/* Nearest hit with t in (tmin, tmax), t in units of dir (not normalized); *uv
+ * receives the bilinear parameters (u, v) of the hit. NaN anywhere, a zero
+ * direction and fully degenerate patches give a miss. A hit closer than the
+ * rounding error of the patch's position relative to the origin (gamma(8) of
+ * its largest coordinate) cannot be told from the surface the ray starts on
+ * and is not reported (pbrt-v4 6.8.5's reasoning for triangles). */
+inline int quad_intersect(__global const QuadVerts* qv, float3 org, float3 dir, float tmin, float tmax,
+                          float* t, float2* uv)
+{
+    float3 p0 = quad_p0(qv), p1 = quad_p1(qv), p2 = quad_p2(qv), p3 = quad_p3(qv);
+    float3 q00 = p0 - org, q10 = p1 - org, q11 = p2 - org, q01 = p3 - org;
+    float3 e00 = q01 - q00, e11 = q11 - q10;
+    float c2 = dot3(cross3(p1 - p0, p3 - p2), dir);
+    float c0 = dot3(cross3(q00, dir), e00);
+    float c1 = dot3(cross3(q10, dir), e11) - c0 - c2;
+    float disc = tx_diff_prod(c1, c1, 4.0f * c2, c0);
+    if (!(disc >= 0.0f)) return 0;
+    float q = -0.5f * (c1 + copysign(sqrt(disc), c1));
+    float3 m = TX_MAX(TX_MAX(abs3(q00), abs3(q10)), TX_MAX(abs3(q11), abs3(q01)));
+    float t_floor = gamma_n(8.0f) * TX_MAX(TX_MAX(m.x, m.y), m.z) * rsqrt(dot3(dir, dir));
+    float3 best = (float3)(tmax, 0.0f, 0.0f);
+    int hit = quad_try_root(q / c2, q00, q10, e00, e11, dir, tmin, t_floor, &best);
+    hit |= quad_try_root(c0 / q, q00, q10, e00, e11, dir, tmin, t_floor, &best);
+    if (!hit) return 0;
+    *t = best.x;
+    *uv = best.yz;
+    return 1;
+}
+
+/* Geometry at the bilinear parameters (u, v) of a hit.
+ *
+ * p = P(u, v); dP/du = lerp(P1 - P0, P2 - P3, v), dP/dv = lerp(P3 - P0, P2 - P1, u)
+ * (pbrt-v4 BilinearPatch::InteractionFromIntersection); error bound gamma(6)
+ * times the largest vertex coordinate (pbrt-v4).
+ *
+ * ng = normalize(dP/du x dP/dv). Where that cross product is rounding noise
+ * (below 2^-20 of |dP/du| |dP/dv| after scaling both to unit size, i.e. a few
+ * roundings of its components: a corner where two edges are collinear, the
+ * fold of a bow-tie), ng falls back to the patch's mean normal (P2 - P0) x
+ * (P3 - P1), then to the larger of the normals of triangles (P0, P1, P2) and
+ * (P0, P2, P3), then to +z (all four vertices collinear: no normal exists).
+ *
+ * Texture coordinates: the bilinear interpolation of QuadShade.uv (u0 v0 at
+ * P0, u1 v1 at P1, u2 v2 at P2, u3 v3 at P3) at (u, v) (lecture). dpdu, dpdv are
+ * with respect to them: [dP/ds dP/dt] = [dP/du dP/dv] J^-1 with J = d(s, t)/d(u, v).
+ * Where J is singular to float precision (|det J| at most 2^-16 of |J00 J11| +
+ * |J01 J10|: the determinant is then within a few hundred roundings of zero and
+ * its inverse would amplify them more than 6e4-fold), or not finite, dpdu and
+ * dpdv are the derivatives with respect to the bilinear (u, v) instead. With a
+ * mirrored texture (det J < 0) dpdu x dpdv points opposite ng. */
+inline void quad_geom(__global const QuadVerts* qv, __global const QuadShade* qs, float2 param_uv, Geom* g)
+{
+    float u = param_uv.x, v = param_uv.y;
+    float3 p0 = quad_p0(qv), p1 = quad_p1(qv), p2 = quad_p2(qv), p3 = quad_p3(qv);
+    float3 pu = (1.0f - v) * (p1 - p0) + v * (p2 - p3);
+    float3 pv = (1.0f - u) * (p3 - p0) + u * (p2 - p1);
+    float3 a = p0 + u * (p1 - p0), b = p3 + u * (p2 - p3);
+    g->p = a + v * (b - a);
+    float3 pm = TX_MAX(TX_MAX(abs3(p0), abs3(p1)), TX_MAX(abs3(p2), abs3(p3)));
+    g->perr = gamma_n(6.0f) * (float3)(TX_MAX(TX_MAX(pm.x, pm.y), pm.z));
+
+    float3 zero = (float3)(0.0f);
+    float3 n = cross3(tx_unit_or(pu, zero), tx_unit_or(pv, zero));
+    if (!(dot3(n, n) > 9.094947e-13f)) {              /* (2^-20)^2 */
+        n = cross3(p2 - p0, p3 - p1);
+        if (!(TX_MAX(TX_MAX(fabs(n.x), fabs(n.y)), fabs(n.z)) > 0.0f)) {
+            float3 n1 = cross3(p1 - p0, p2 - p0), n2 = cross3(p2 - p0, p3 - p0);
+            n = dot3(n1, n1) >= dot3(n2, n2) ? n1 : n2;
+        }
+    }
+    g->ng = tx_unit_or(n, (float3)(0.0f, 0.0f, 1.0f));
+
+    __global const float* t = qs->uv;
+    float2 t0 = (float2)(t[0], t[1]), t1 = (float2)(t[2], t[3]);
+    float2 t2 = (float2)(t[4], t[5]), t3 = (float2)(t[6], t[7]);
+    float2 ta = t0 + u * (t1 - t0), tb = t3 + u * (t2 - t3);
+    g->uv = ta + v * (tb - ta);
+    float2 tu = (1.0f - v) * (t1 - t0) + v * (t2 - t3);    /* d(s, t)/du */
+    float2 tv = (1.0f - u) * (t3 - t0) + u * (t2 - t1);    /* d(s, t)/dv */
+    float det = tu.x * tv.y - tv.x * tu.y;
+    float size = fabs(tu.x * tv.y) + fabs(tv.x * tu.y);
+    if (fabs(det) > 1.5258789e-05f * size && size <= FLT_MAX) {   /* 2^-16 */
+        float inv = 1.0f / det;
+        g->dpdu = (tv.y * pu - tu.y * pv) * inv;
+        g->dpdv = (tu.x * pv - tv.x * pu) * inv;
+    } else {
+        g->dpdu = pu;
+        g->dpdv = pv;
+    }
+}
+
+#endif

@@ -1,0 +1,131 @@
+#line 2 "sphere.h"
+/* Ray/sphere intersection and the sphere's texture mapping.
+ *
+ * Intersection: Haines, Guenther, Akenine-Moller, "Precision Improvements for
+ * Ray/Sphere Intersection" (Ray Tracing Gems, ch. 7, 2019): the discriminant
+ * comes from the squared distance l^2 between the centre and the ray, not from
+ * b^2 - 4ac, and the roots from the stable pair t0 = c/q, t1 = q/a. Here l^2 is
+ * computed through Lagrange's identity |f - (f.d^)d^|^2 = |f x d|^2 / |d|^2 with
+ * the cross product by Kahan's FMA algorithm, and f = org - centre is carried
+ * exactly as a TwoSum pair (geom.h). That removes the two float32 roundings the
+ * chapter's vector form keeps, each of size u |f|: for a sphere of radius r
+ * seen from a distance |f|, they shift the decision by about u |f| / r of the
+ * radius, i.e. by half the radius for r = 1e-3 at 1e4; with them removed the
+ * decision is exact to a few ulp of l whatever the distance.
+ *
+ * Texture mapping (the lecture's sphere, and pbrt-v4 Sphere): in the frame
+ * x = axis_x, z = axis_z, y = z x x, theta = atan2(sqrt(x^2 + y^2), z) is the
+ * polar angle from +z and phi = atan2(y, x) in [0, 2pi) the azimuth from +x
+ * toward +y. The lecture's s = theta/pi, t = phi/2pi give uv = (t, 1 - s) =
+ * (phi/2pi, 1 - theta/pi): an equirectangular image (v = 0 its bottom row) maps
+ * with the north pole at the top. atan2 keeps the sign of y that the lecture's
+ * acos(x / (r sin(pi s))) loses, and has no division by sin(theta) = 0. */
+#ifndef TEXRAY_SPHERE_H
+#define TEXRAY_SPHERE_H
+
+inline float4 sphere_center_radius(__global const Sphere* s) { return ((__global const float4*)s)[0]; }
+inline float3 sphere_axis_x(__global const Sphere* s) { return ((__global const float4*)s)[1].xyz; }
+inline float3 sphere_axis_z(__global const Sphere* s) { return ((__global const float4*)s)[2].xyz; }
+
+/* What both functions below derive from the ray: f = org - centre as fh + fl,
+ * w = f x dir (accurate), a = |dir|^2 and disc = r^2 - l^2 (l the distance from
+ * the centre to the ray line). */
+typedef struct { float3 fh, fl, w; float a, disc; } SphereRay;
+
+inline SphereRay sphere_ray(float3 c, float r, float3 org, float3 dir)
+{
+    SphereRay s;
+    tx_two_diff3(org, c, &s.fh, &s.fl);
+    s.a = dot3(dir, dir);
+    s.w = tx_cross_accurate(s.fh, dir) + cross3(s.fl, dir);   /* fl x dir: |fl| <= u |fh|, plain is enough */
+    s.disc = r * r - dot3(s.w, s.w) / s.a;
+    return s;
+}
+
+/* Nearest hit with t in (tmin, tmax), t in units of dir (not normalized).
+ * Radius <= 0, a zero direction and NaN anywhere give a miss (every test is
+ * written so that NaN fails it). A root within the rounding error of c (the
+ * ray's origin lies on the sphere to float precision) is the surface the ray
+ * starts from, not a hit (pbrt-v4 6.8.5 rejects such t likewise). */
+inline int sphere_intersect(__global const Sphere* s, float3 org, float3 dir, float tmin, float tmax, float* t)
+{
+    float4 cr = sphere_center_radius(s);
+    float r = cr.w;
+    float a = dot3(dir, dir);
+    if (!(r > 0.0f && a > 0.0f)) return 0;
+    SphereRay sr = sphere_ray(cr.xyz, r, org, dir);
+    if (!(sr.disc >= 0.0f)) return 0;
+    float b = dot3(sr.fh, dir);                      /* half the linear coefficient */
+    float ff = dot3(sr.fh, sr.fh), rr = r * r;
+    float c = ff - rr;
+    /* Bound on c's error: gamma(3) for |fh|^2, 2u for the dropped 2 fh.fl, u for
+     * r^2 and u for the subtraction, all within gamma(6) (|fh|^2 + r^2). */
+    int c_known = fabs(c) > gamma_n(6.0f) * (ff + rr);
+    float q = -(b + copysign(sqrt(a * sr.disc), b));
+    float t_small = c / q, t_large = q / a;          /* |c/q| <= |q/a| */
+    int ok_small = c_known && t_small > tmin && t_small < tmax;
+    int ok_large = t_large > tmin && t_large < tmax;
+    if (ok_small && (!ok_large || t_small < t_large)) { *t = t_small; return 1; }
+    if (ok_large) { *t = t_large; return 1; }
+    return 0;
+}
+
+/* Geometry of the hit at t found by sphere_intersect.
+ *
+ * The point is not org + t dir, whose rounding (u |org + t dir|, and t's own
+ * relative error times |f|) can be much larger than the sphere: it is the
+ * closest point of the ray to the centre, v = dir x (f x dir) / |dir|^2,
+ * plus or minus the half chord sqrt(disc) along dir^, both accurate relative
+ * to r; then projected onto the sphere (p = c + r (p - c)/|p - c|) as pbrt-v4
+ * does. Error bound: gamma(5) |p - c| per component for the projected offset
+ * (pbrt-v4 6.8.5) plus gamma(1) |p| for the final addition of the centre.
+ *
+ * uv = (phi/2pi, 1 - theta/pi) (header comment); u is clamped to [0, 1],
+ * which matters just below the seam (phi = -tiny gives 2pi - tiny, and float32
+ * 2pi rounds up), and so is v (float32 pi rounds up too). Derivatives with respect to uv: dpdu = 2pi dP/dphi,
+ * dpdv = -pi dP/dtheta, with dP/dphi = (-y, x, 0) and dP/dtheta =
+ * (z cos(phi), z sin(phi), -rho) in the frame (rho = sqrt(x^2 + y^2)), so that
+ * dpdu x dpdv points outward like ng. At an exact pole (rho = 0) dP/dphi
+ * vanishes and phi is undefined: phi is taken as 0 (u = 0), dpdu as 2pi r axis_y
+ * (the dP/dphi direction for phi = 0, scaled to the equator's length) and
+ * dpdv = -pi z axis_x, the limit of dP/dtheta along phi = 0; dpdu x dpdv then
+ * still points outward. Near the poles phi keeps its accuracy of about
+ * u r / rho radians, the conditioning of the azimuth itself. */
+inline void sphere_geom(__global const Sphere* s, float3 org, float3 dir, float t, Geom* g)
+{
+    float4 cr = sphere_center_radius(s);
+    float3 c = cr.xyz;
+    float r = cr.w;
+    SphereRay sr = sphere_ray(c, r, org, dir);
+    float inv_a = 1.0f / sr.a;
+    float t_mid = -dot3(sr.fh, dir) * inv_a;          /* parameter of the closest point */
+    float half_chord = sqrt(TX_MAX(sr.disc, 0.0f) * inv_a);
+    float3 v = cross3(dir, sr.w) * inv_a;             /* closest point, relative to the centre */
+    float3 local = v + (t < t_mid ? -half_chord : half_chord) * dir;
+    float3 n = tx_unit_or(local, sphere_axis_z(s));   /* local = 0 only if r is tiny against rounding */
+    local = r * n;
+    g->p = c + local;
+    g->perr = gamma_n(5.0f) * abs3(local) + gamma_n(1.0f) * abs3(g->p);
+    g->ng = n;
+
+    float3 ax = sphere_axis_x(s), az = sphere_axis_z(s);
+    float3 ay = cross3(az, ax);
+    float x = dot3(local, ax), y = dot3(local, ay), z = dot3(local, az);
+    float rho = hypot(x, y);
+    float phi = 0.0f, cos_phi = 1.0f, sin_phi = 0.0f;
+    float3 dp_dphi = r * ay;                         /* pole: see above */
+    if (rho > 0.0f) {
+        phi = atan2(y, x);
+        if (phi < 0.0f) phi += 2.0f * M_PI_F;
+        cos_phi = x / rho;
+        sin_phi = y / rho;
+        dp_dphi = x * ay - y * ax;
+    }
+    float theta = atan2(rho, z);
+    g->uv = (float2)(TX_MIN(phi * (0.5f * M_1_PI_F), 1.0f), TX_MAX(1.0f - theta * M_1_PI_F, 0.0f));
+    float3 dp_dtheta = z * (cos_phi * ax + sin_phi * ay) - rho * az;
+    g->dpdu = (2.0f * M_PI_F) * dp_dphi;
+    g->dpdv = -M_PI_F * dp_dtheta;
+}
+
+#endif
