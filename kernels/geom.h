@@ -41,6 +41,15 @@ inline float3 tx_cross_accurate(float3 a, float3 b)
                     tx_diff_prod(a.x, b.y, a.y, b.x));
 }
 
+/* a + b, adding its rounding error exactly to *err (TwoSum). */
+inline float tx_two_sum(float a, float b, float* err)
+{
+    float s = a + b;
+    float bb = s - a;
+    *err += (a - (s - bb)) + (b - bb);
+    return s;
+}
+
 /* a - b = *hi + *lo exactly, per component (TwoSum: six additions, no branch). */
 inline void tx_two_diff3(float3 a, float3 b, float3* hi, float3* lo)
 {

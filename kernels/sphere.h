@@ -42,6 +42,24 @@ inline SphereRay sphere_ray(float3 c, float r, float3 org, float3 dir)
     return s;
 }
 
+/* c = |f|^2 - r^2 for f = fh + fl, to a few ulp of c even where the origin is
+ * near the surface and the two terms nearly cancel (the near root c/q then keeps
+ * its relative accuracy): the squares are split exactly with FMA (TwoProduct)
+ * and summed with TwoSum, as in Ogita, Rump, Oishi, "Accurate Sum and Dot
+ * Product" (SIAM J. Sci. Comput. 26(6), 2005), Dot2. The error is at most
+ * u |c| + gamma(6)^2 (|fh|^2 + r^2) (the same paper's bound, with the dropped
+ * |fl|^2 and the rounding of 2 fh.fl, both below 8 u^2 |fh|^2). */
+inline float sphere_c(float3 fh, float3 fl, float r)
+{
+    float sx = fh.x * fh.x, sy = fh.y * fh.y, sz = fh.z * fh.z, rr = r * r;
+    float err = fma(fh.x, fh.x, -sx) + fma(fh.y, fh.y, -sy) + fma(fh.z, fh.z, -sz) - fma(r, r, -rr)
+              + 2.0f * dot3(fh, fl);
+    float s = tx_two_sum(sx, sy, &err);
+    s = tx_two_sum(s, sz, &err);
+    s = tx_two_sum(s, -rr, &err);
+    return s + err;
+}
+
 /* Nearest hit with t in (tmin, tmax), t in units of dir (not normalized).
  * Radius <= 0, a zero direction and NaN anywhere give a miss (every test is
  * written so that NaN fails it). A root within the rounding error of c (the
@@ -56,11 +74,10 @@ inline int sphere_intersect(__global const Sphere* s, float3 org, float3 dir, fl
     SphereRay sr = sphere_ray(cr.xyz, r, org, dir);
     if (!(sr.disc >= 0.0f)) return 0;
     float b = dot3(sr.fh, dir);                      /* half the linear coefficient */
-    float ff = dot3(sr.fh, sr.fh), rr = r * r;
-    float c = ff - rr;
-    /* Bound on c's error: gamma(3) for |fh|^2, 2u for the dropped 2 fh.fl, u for
-     * r^2 and u for the subtraction, all within gamma(6) (|fh|^2 + r^2). */
-    int c_known = fabs(c) > gamma_n(6.0f) * (ff + rr);
+    float c = sphere_c(sr.fh, sr.fl, r);
+    /* |c| within twice its error bound (sphere_c) of 0: the origin is on the sphere. */
+    float g6 = gamma_n(6.0f);
+    int c_known = fabs(c) > 2.0f * g6 * g6 * (dot3(sr.fh, sr.fh) + r * r);
     float q = -(b + copysign(sqrt(a * sr.disc), b));
     float t_small = c / q, t_large = q / a;          /* |c/q| <= |q/a| */
     int ok_small = c_known && t_small > tmin && t_small < tmax;
@@ -101,16 +118,16 @@ inline void sphere_geom(__global const Sphere* s, float3 org, float3 dir, float 
     float t_mid = -dot3(sr.fh, dir) * inv_a;          /* parameter of the closest point */
     float half_chord = sqrt(TX_MAX(sr.disc, 0.0f) * inv_a);
     float3 v = cross3(dir, sr.w) * inv_a;             /* closest point, relative to the centre */
-    float3 local = v + (t < t_mid ? -half_chord : half_chord) * dir;
-    float3 n = tx_unit_or(local, sphere_axis_z(s));   /* local = 0 only if r is tiny against rounding */
-    local = r * n;
-    g->p = c + local;
-    g->perr = gamma_n(5.0f) * abs3(local) + gamma_n(1.0f) * abs3(g->p);
+    float3 pc = v + (t < t_mid ? -half_chord : half_chord) * dir;
+    float3 n = tx_unit_or(pc, sphere_axis_z(s));   /* pc = 0 only if r is tiny against rounding */
+    pc = r * n;
+    g->p = c + pc;
+    g->perr = gamma_n(5.0f) * abs3(pc) + gamma_n(1.0f) * abs3(g->p);
     g->ng = n;
 
     float3 ax = sphere_axis_x(s), az = sphere_axis_z(s);
     float3 ay = cross3(az, ax);
-    float x = dot3(local, ax), y = dot3(local, ay), z = dot3(local, az);
+    float x = dot3(pc, ax), y = dot3(pc, ay), z = dot3(pc, az);
     float rho = hypot(x, y);
     float phi = 0.0f, cos_phi = 1.0f, sin_phi = 0.0f;
     float3 dp_dphi = r * ay;                         /* pole: see above */

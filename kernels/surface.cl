@@ -32,7 +32,7 @@ __kernel void surface(__global const Ray* rays, __global const Hit* hits, __glob
                       TX_GEOM_PARAMS, __global const TriShade* tri_shade, __global const QuadShade* quad_shade,
                       __global const float* normals, __global const float* uvs,
                       __global const Material* materials, __global const TextureInfo* textures,
-                      __global const half* texels, __global float* aov)
+                      __global const half* texels, __global const ObjectInfo* objects, __global float* aov)
 {
     uint gid = get_global_id(0);
     if (gid >= n) return;
@@ -85,6 +85,14 @@ __kernel void surface(__global const Ray* rays, __global const Hit* hits, __glob
         material = qs->material; object = qs->object; prim = qs->prim;
     }
 #endif
+#if TX_PROJECTIONS
+    /* A projection mapping of the object replaces the primitive's own uv. */
+    __global const ObjectInfo* ob = objects + object;
+    if (ob->mapping >= 0) {
+        Frame f = { vload3(0, ob->origin), vload3(0, ob->x), vload3(0, ob->y), vload3(0, ob->z) };
+        g.uv = map_projection(ob->mapping, f, g.p, (float3)(0.0f), (float3)(0.0f)).uv;
+    }
+#endif
     float side = dot3(g.ng, dir) > 0.0f ? -1.0f : 1.0f;   /* face the incoming ray */
     float3 ng = side * g.ng;
     float3 ns = vertex_normal ? side * normalize3(ns_raw) : ng;
@@ -93,7 +101,8 @@ __kernel void surface(__global const Ray* rays, __global const Hit* hits, __glob
     float3 kd = vload3(0, m->diffuse);
 #if TX_TEXTURES
     if (m->diffuse_tex >= 0)
-        kd *= texture_bilinear(texels, textures + m->diffuse_tex, g.uv).xyz;
+        kd *= texture_bilinear(texels, textures + m->diffuse_tex,
+                               texture_coords(textures + m->diffuse_tex, g.uv)).xyz;
 #endif
     vstore3(g.p, 0, s->p);
     s->offset = dot3(abs3(ng), g.perr);

@@ -16,6 +16,8 @@
 #include "quad.h"
 #endif
 #include "bvh.h"
+#include "wrap.h"
+#include "mapping.h"
 #include "texture.h"
 #include "raygen.cl"
 #include "intersect.cl"

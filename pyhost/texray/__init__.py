@@ -8,11 +8,12 @@
 """
 from .device import DeviceInfo, devices
 from .errors import BuildError, DeviceError, SceneError, TexrayError
+from .mapping import Projection, UVTransform
 from .render import Image, render
 from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sphere, Texture
 from .transform import Transform
 
 __all__ = ["BuildError", "Camera", "Cylinder", "DeviceError", "DeviceInfo", "Image", "Material", "Mesh",
-           "PointLight", "Quad", "Scene", "SceneError", "Sphere", "TexrayError", "Texture", "Transform", "devices",
+           "PointLight", "Projection", "Quad", "Scene", "SceneError", "Sphere", "TexrayError", "Texture", "Transform", "UVTransform", "devices",
            "render"]
 __version__ = "0.1.0"

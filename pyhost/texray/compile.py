@@ -12,7 +12,8 @@ from . import layout
 from .accel import SceneBVH, build_scene_bvh
 from .errors import SceneError
 from .features import Features, stack_size_for
-from .scene import Cylinder, Mesh, Quad, Scene, Sphere, _rgb, degenerate_faces, warn_degenerate
+from .scene import (Cylinder, Mesh, Quad, Scene, Sphere, _rgb, degenerate_faces, object_frame,
+                    warn_degenerate)
 
 
 @dataclass
@@ -29,6 +30,7 @@ class CompiledScene:
     materials: np.ndarray          # layout.MATERIAL
     textures: np.ndarray | None    # layout.TEXTURE
     texels: np.ndarray | None      # float16 (T*4,) RGBA, linear
+    objects: np.ndarray | None     # layout.OBJECT, when some object has a projection mapping
     lights: np.ndarray             # layout.POINT_LIGHT
     ambient: np.ndarray            # float32 (4,)
     background: np.ndarray         # float32 (4,)
@@ -40,7 +42,8 @@ class CompiledScene:
         arrays = {"tri_verts": self.tri_verts, "tri_shade": self.tri_shade, "spheres": self.spheres,
                   "cylinders": self.cylinders, "quad_verts": self.quad_verts, "quad_shade": self.quad_shade,
                   "nodes": self.nodes, "normals": self.normals, "uvs": self.uvs, "materials": self.materials,
-                  "textures": self.textures, "texels": self.texels, "lights": self.lights}
+                  "textures": self.textures, "texels": self.texels, "objects": self.objects,
+                  "lights": self.lights}
         return {k: int(v.nbytes) for k, v in arrays.items() if v is not None and v.nbytes}
 
 
@@ -192,17 +195,19 @@ def compile_scene(scene: Scene, shadows: bool = True) -> CompiledScene:
 
     materials, any_specular = mats.table()
     tex_table, texels = _pack_textures(mats.textures)
+    objects = _object_table(scene.objects)
     lights = np.zeros(len(scene.lights), layout.POINT_LIGHT)
     for i, light in enumerate(scene.lights):
         lights[i]["position"], lights[i]["intensity"] = light.validate(f"lights[{i}].")
     features = Features(textures=bool(mats.textures), vertex_normals=any_normals, specular=any_specular,
                         shadows=shadows and bool(scene.lights),
                         spheres=len(spheres) > 0, cylinders=len(cylinders) > 0, quads=len(quad_verts) > 0,
+                        projections=objects is not None,
                         stack_size=stack_size_for(tree.depth))
     return CompiledScene(
         tri_verts=tri_verts, tri_shade=tri_shade, spheres=spheres, cylinders=cylinders,
         quad_verts=quad_verts, quad_shade=quad_shade, nodes=tree.nodes, normals=normals, uvs=uvs,
-        materials=materials, textures=tex_table, texels=texels, lights=lights,
+        materials=materials, textures=tex_table, texels=texels, objects=objects, lights=lights,
         ambient=np.append(_rgb(scene.ambient, "ambient", "scene."), 0).astype(np.float32),
         background=np.append(_rgb(scene.background, "background", "scene."), 0).astype(np.float32),
         features=features, bvh=tree)
@@ -214,18 +219,41 @@ def triangle_bounds(tri_verts):
     return np.minimum(np.minimum(p0, p1), p2), np.maximum(np.maximum(p0, p1), p2)
 
 
+def _object_table(objs):
+    """layout.OBJECT per scene object, or None when no object has a projection mapping."""
+    if not any(o.mapping is not None for o in objs):
+        return None
+    table = np.zeros(len(objs), layout.OBJECT)
+    table["mapping"] = -1
+    for i, o in enumerate(objs):
+        if o.mapping is not None:
+            f = object_frame(o)
+            table[i]["mapping"] = o.mapping.kind_id
+            table[i]["origin"], table[i]["x"], table[i]["y"], table[i]["z"] = f
+    return table
+
+
 def _pack_textures(textures):
-    """One texture table and one shared half-float RGBA texel buffer, or (None, None)."""
+    """One texture table and one shared half-float RGBA texel buffer, or (None, None).
+    Textures sharing pixels (Texture.with_options) share texels."""
     if not textures:
         return None, None
-    table = np.zeros(len(textures), layout.TEXTURE)
-    sizes = np.array([t.rgba.shape[0] * t.rgba.shape[1] for t in textures], dtype=np.int64)
+    from .mapping import WRAP_MODES, UVTransform
+    images, image_index = [], {}
+    for t in textures:
+        if id(t.rgba) not in image_index:
+            image_index[id(t.rgba)] = len(images)
+            images.append(t.rgba)
+    sizes = np.array([im.shape[0] * im.shape[1] for im in images], dtype=np.int64)
     offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
     if sizes.sum() >= 2**32:
         raise SceneError(f"textures: {sizes.sum()} texels in all exceeds the 2^32 texel limit")
-    table["offset"] = offsets
-    table["height"] = [t.rgba.shape[0] for t in textures]
-    table["width"] = [t.rgba.shape[1] for t in textures]
+    table = np.zeros(len(textures), layout.TEXTURE)
+    for i, t in enumerate(textures):
+        table[i]["offset"] = offsets[image_index[id(t.rgba)]]
+        table[i]["height"], table[i]["width"] = t.rgba.shape[:2]
+        table[i]["wrap"] = WRAP_MODES[t.wrap]
+        table[i]["m0"], table[i]["m1"] = (t.uv_transform or UVTransform()).device_args()
     # Half floats top out at 65504: clamp so that bright HDR texels stay finite.
-    texels = np.clip(np.concatenate([t.rgba.reshape(-1, 4) for t in textures]), -65504, 65504)
+    texels = np.clip(np.concatenate([im.reshape(-1, 4) for im in images]), -65504, 65504)
     return table, texels.astype(np.float16).ravel()

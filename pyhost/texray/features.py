@@ -14,6 +14,7 @@ class Features:
     spheres: bool = False          # primitive kinds present in the BVH (triangles are always compiled)
     cylinders: bool = False
     quads: bool = False
+    projections: bool = False      # some object generates its uv by a projection mapping
     aovs: bool = False             # the surface stage writes AOVs
     stack_size: int = 64           # BVH traversal stack; >= the tree's depth
 
@@ -37,6 +38,7 @@ def compile_options(f: Features) -> dict[str, int]:
         "TX_SPHERES": int(f.spheres),
         "TX_CYLINDERS": int(f.cylinders),
         "TX_QUADS": int(f.quads),
+        "TX_PROJECTIONS": int(f.projections),
         "TX_AOVS": int(f.aovs),
         "TX_STACK_SIZE": int(f.stack_size),
     }

@@ -104,11 +104,27 @@ MATERIAL = np.dtype([
     ("specular_tex", "<i4"), ("bump_tex", "<i4"), ("normal_tex", "<i4"), ("pad0", "<i4"),
 ])
 
-# --- Texture table entry: 16 bytes ------------------------------------------
+# --- Texture table entry: 48 bytes ------------------------------------------
 # Texels are RGBA half floats, linear, row 0 = the file's top row; a texture
-# occupies width*height texels starting at texel ``offset`` of the shared buffer.
+# occupies width*height texels starting at texel ``offset`` of the shared
+# buffer. ``wrap``: kernels/wrap.h TX_WRAP_*. The lookup coordinates are
+# (u', v') = (m0[0] u + m0[1] v + m1[0], m0[2] u + m0[3] v + m1[1]): the
+# texture's UV transform (texray.mapping.UVTransform).
 TEXTURE = np.dtype([
-    ("offset", "<u4"), ("width", "<u4"), ("height", "<u4"), ("flags", "<u4"),
+    ("offset", "<u4"), ("width", "<u4"), ("height", "<u4"), ("wrap", "<u4"),
+    ("m0", "<f4", (4,)),
+    ("m1", "<f4", (2,)), ("pad0", "<f4"), ("pad1", "<f4"),
+])
+
+# --- Per-object data: 80 bytes -----------------------------------------------
+# mapping: -1 = the primitive's own uv, else kernels/mapping.h TX_MAP_* with
+# the projection frame in world space (axes scaled by the projection's scale).
+OBJECT = np.dtype([
+    ("mapping", "<i4"), ("pad0", "<i4"), ("pad1", "<i4"), ("pad2", "<i4"),
+    ("origin", "<f4", (3,)), ("pad3", "<f4"),
+    ("x", "<f4", (3,)), ("pad4", "<f4"),
+    ("y", "<f4", (3,)), ("pad5", "<f4"),
+    ("z", "<f4", (3,)), ("pad6", "<f4"),
 ])
 
 # --- Point light: 32 bytes --------------------------------------------------
@@ -154,7 +170,7 @@ AOV_FLOATS = 20
 STRUCTS = {
     "BVHNode": BVH_NODE, "TriVerts": TRI_VERTS, "TriShade": TRI_SHADE,
     "Sphere": SPHERE, "Cylinder": CYLINDER, "QuadVerts": QUAD_VERTS, "QuadShade": QUAD_SHADE, "Material": MATERIAL,
-    "TextureInfo": TEXTURE, "PointLight": POINT_LIGHT, "Camera": CAMERA,
+    "TextureInfo": TEXTURE, "ObjectInfo": OBJECT, "PointLight": POINT_LIGHT, "Camera": CAMERA,
     "Ray": RAY, "Hit": HIT, "Surface": SURFACE,
 }
 

@@ -65,7 +65,7 @@ class _Uploaded:
         self.quads, self.quad_shade = buf(cs.quad_verts), buf(cs.quad_shade)
         self.normals, self.uvs = buf(cs.normals), buf(cs.uvs)
         self.materials, self.textures, self.texels = buf(cs.materials), buf(cs.textures), buf(cs.texels)
-        self.lights = buf(cs.lights)
+        self.lights, self.objects = buf(cs.lights), buf(cs.objects)
         self.nnodes = np.uint32(len(cs.nodes))
         self.nlights = np.uint32(len(cs.lights))
 
@@ -144,7 +144,7 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         events["intersect"].append(k["intersect"](q, gsize, None, rays, hits, u32(n), *up.geom))
         events["surface"].append(k["surface"](q, gsize, None, rays, hits, surf, u32(n), *up.geom, up.shade,
                                               up.quad_shade, up.normals, up.uvs, up.materials, up.textures,
-                                              up.texels, aov))
+                                              up.texels, up.objects, aov))
 
     for y0 in range(0, height, rows):
         tile_rows = min(rows, height - y0)

@@ -77,18 +77,35 @@ class Texture:
     ``colorspace``: ``"srgb"`` decodes 8-bit-style display values to linear
     (colour roles), ``"linear"`` keeps the values (data roles), ``"auto"``
     decodes unless the file says it is linear (EXR, HDR, float TIFF).
+    ``wrap``: "repeat", "clamp" or "mirror" outside [0, 1]. ``uv_transform``: a
+    :class:`texray.mapping.UVTransform` applied to the lookup coordinates.
+    :meth:`with_options` makes a texture sharing the pixels (uploaded once).
     """
 
-    def __init__(self, rgba: np.ndarray, name: str = "<array>"):
+    def __init__(self, rgba: np.ndarray, name: str = "<array>", wrap="repeat", uv_transform=None):
+        from .mapping import WRAP_MODES, UVTransform
         self.rgba = rgba
         self.name = name
+        if wrap not in WRAP_MODES:
+            raise SceneError(f"{name}: wrap: expected one of {', '.join(WRAP_MODES)}, got {wrap!r}")
+        if uv_transform is not None and not isinstance(uv_transform, UVTransform):
+            raise SceneError(f"{name}: uv_transform: expected a texray.UVTransform, got {uv_transform!r}")
+        if uv_transform is not None:
+            uv_transform.validate()
+        self.wrap = wrap
+        self.uv_transform = uv_transform
+
+    def with_options(self, wrap=None, uv_transform=None):
+        """The same pixels with another wrap mode and/or UV transform."""
+        return Texture(self.rgba, self.name, wrap or self.wrap,
+                       uv_transform if uv_transform is not None else self.uv_transform)
 
     @property
     def shape(self):
         return self.rgba.shape[:2]
 
     @classmethod
-    def load(cls, path, colorspace="auto", field="texture"):
+    def load(cls, path, colorspace="auto", field="texture", wrap="repeat", uv_transform=None):
         from .imageio import read_image
         pixels, file_cs = read_image(path, field)
         if colorspace not in ("auto", "srgb", "linear"):
@@ -96,10 +113,12 @@ class Texture:
         if colorspace == "auto":
             linear_file = Path(path).suffix.lower() in (".exr", ".hdr", ".pfm") or "linear" in file_cs.lower()
             colorspace = "linear" if linear_file else "srgb"
-        return cls.from_array(pixels, colorspace=colorspace, name=str(path), field=field)
+        return cls.from_array(pixels, colorspace=colorspace, name=str(path), field=field, wrap=wrap,
+                              uv_transform=uv_transform)
 
     @classmethod
-    def from_array(cls, array, colorspace="linear", name="<array>", field="texture"):
+    def from_array(cls, array, colorspace="linear", name="<array>", field="texture", wrap="repeat",
+                   uv_transform=None):
         """A texture from (H, W) or (H, W, C) numbers, C in 1..4; row 0 is the top row."""
         a = np.asarray(array, dtype=np.float32)
         if a.ndim == 2:
@@ -116,7 +135,8 @@ class Texture:
             rgb = srgb_to_linear(rgb)
         elif colorspace != "linear":
             raise SceneError(f"{field}.colorspace: expected 'srgb' or 'linear', got {colorspace!r}")
-        return cls(np.ascontiguousarray(np.concatenate([rgb, alpha], axis=2), dtype=np.float32), name)
+        return cls(np.ascontiguousarray(np.concatenate([rgb, alpha], axis=2), dtype=np.float32), name, wrap,
+                   uv_transform)
 
     def __repr__(self):
         return f"Texture({self.name!r}, {self.shape[1]}x{self.shape[0]})"
@@ -166,12 +186,13 @@ class Mesh:
     material: Material = field(default_factory=Material)
     transform: Transform | None = None
     name: str = "<mesh>"
+    mapping: object = None        # a texray.Projection generating uvs, or None for the mesh's own
 
     def __post_init__(self):
         self._validate()
 
     @classmethod
-    def load(cls, path, material=None, transform=None):
+    def load(cls, path, material=None, transform=None, mapping=None):
         """Load OBJ, PLY, GLB/GLTF, OFF or STL through trimesh (unprocessed: nothing is silently merged or dropped)."""
         import trimesh
         path = Path(path)
@@ -190,7 +211,7 @@ class Mesh:
         uvs = None if any(u is None for _, _, u, _ in parts) else np.concatenate([u for _, _, u, _ in parts])
         normals = None if any(n is None for _, _, _, n in parts) else np.concatenate([n for _, _, _, n in parts])
         return cls(positions, faces, uvs, normals,
-                   material if material is not None else Material(), transform, str(path))
+                   material if material is not None else Material(), transform, str(path), mapping)
 
     def _validate(self):
         where = f"{self.name}: "
@@ -220,7 +241,8 @@ class Mesh:
         if not isinstance(self.material, Material):
             raise SceneError(f"{where}material: expected a texray.Material, got {type(self.material).__name__}")
         self.material.validate(f"{where}material.")
-        if self.material.textures and self.uvs is None:
+        _check_mapping(self.mapping, where)
+        if self.material.textures and self.uvs is None and self.mapping is None:
             raise SceneError(f"{where}uvs: the material has a texture ({self.material.textures[0].name}) "
                              "but the mesh has no texture coordinates")
         self.positions, self.faces = p, f.astype(np.int64)
@@ -260,6 +282,26 @@ def _similarity(transform, where):
     return m, float(s[0])
 
 
+def _check_mapping(mapping, where):
+    from .mapping import Projection
+    if mapping is not None:
+        if not isinstance(mapping, Projection):
+            raise SceneError(f"{where}mapping: expected a texray.Projection, got {mapping!r}")
+        try:
+            mapping.validate()
+        except SceneError as e:
+            raise SceneError(f"{where}mapping: {e}") from None
+
+
+def object_frame(obj):
+    """The object's projection frame in world space as (origin, x, y, z) rows, axes scaled so that
+    dot(p_world - origin, axis) equals the object-space coordinate times the projection's scale."""
+    f = obj.mapping.device_frame().astype(np.float64)
+    m = np.eye(4) if obj.transform is None else obj.transform.matrix()
+    inv_t = np.linalg.inv(m[:3, :3]).T
+    return np.stack([apply_points(m, f[:1])[0], inv_t @ f[1], inv_t @ f[2], inv_t @ f[3]])
+
+
 def _check_material(m, where):
     if not isinstance(m, Material):
         raise SceneError(f"{where}material: expected a texray.Material, got {type(m).__name__}")
@@ -278,6 +320,7 @@ class Sphere:
     axis_x: tuple = (1.0, 0.0, 0.0)
     transform: Transform | None = None
     name: str = "<sphere>"
+    mapping: object = None
 
     def __post_init__(self):
         self.world()
@@ -291,6 +334,7 @@ class Sphere:
         x, _, z = _frame(self.axis_z, self.axis_x, where)
         rot = m[:3, :3] / k
         _check_material(self.material, where)
+        _check_mapping(self.mapping, where)
         return apply_points(m, c[None])[0], r * k, rot @ x, rot @ z
 
 
@@ -309,6 +353,7 @@ class Cylinder:
     material: Material = field(default_factory=Material)
     transform: Transform | None = None
     name: str = "<cylinder>"
+    mapping: object = None
 
     def __post_init__(self):
         self.world()
@@ -329,6 +374,7 @@ class Cylinder:
         o = _vec3(self.origin, "origin", where)
         rot = m[:3, :3] / k
         _check_material(self.material, where)
+        _check_mapping(self.mapping, where)
         return apply_points(m, o[None])[0], r * k, rot @ x, rot @ z, tuple(zr * k), tuple(np.radians(tr))
 
 
@@ -345,6 +391,7 @@ class Quad:
     uvs: tuple = ((0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0))
     transform: Transform | None = None
     name: str = "<quad>"
+    mapping: object = None
 
     def __post_init__(self):
         self.world()
@@ -362,6 +409,7 @@ class Quad:
         if area == 0:
             raise SceneError(f"{where}p0..p3: the quad has zero area: {p.tolist()}")
         _check_material(self.material, where)
+        _check_mapping(self.mapping, where)
         return p, uv
 
 

@@ -15,6 +15,7 @@ except ModuleNotFoundError:        # Python < 3.11
 
 from .errors import SceneError
 from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sphere, Texture
+from .mapping import WRAP_MODES, Projection, UVTransform
 from .transform import Transform
 
 _NUM = (int, float)
@@ -26,15 +27,18 @@ _SCHEMA = {
     "scene": {"ambient": _VEC, "background": _VEC},
     "render": {"width": int, "height": int, "spp": int, "seed": int},
     "lights": {"position": _VEC, "intensity": _VEC},
-    "textures": {"file": str, "colorspace": str},
+    "textures": {"file": str, "colorspace": str, "wrap": str, "uv_transform": dict},
+    "uv_transform": {"scale": _VEC, "offset": _VEC, "rotation": _NUM},
+    "mapping": {"kind": str, "origin": _VEC, "x_axis": _VEC, "z_axis": _VEC, "scale": _NUM},
     "materials": {"diffuse": (str, list), "tint": _VEC, "specular": (int, float, list), "shininess": _NUM},
     "objects": {"type": str, "material": str, "translate": _VEC, "rotate": _VEC, "scale": (int, float, list),
+                "mapping": dict,
                 "mesh": str,                                                   # type = "mesh"
                 "center": _VEC, "radius": _NUM, "axis_z": _VEC, "axis_x": _VEC,   # "sphere", "cylinder"
                 "z_range": _VEC, "theta_range": _VEC, "origin": _VEC,          # "cylinder"
                 "p0": _VEC, "p1": _VEC, "p2": _VEC, "p3": _VEC, "uvs": _VEC},  # "quad"
 }
-_REQUIRED = {"lights": ("position",), "textures": ("file",)}
+_REQUIRED = {"lights": ("position",), "textures": ("file",), "mapping": ("kind",)}
 # Keys each object type takes besides type, material and the transform; the first ones are required.
 _OBJECT_KEYS = {
     "mesh": (("mesh",), ()),
@@ -97,8 +101,15 @@ def _build(doc, base, path):
     textures = {}
     for name, tt in doc.get("textures", {}).items():
         _check_table(tt, "textures", f"textures.{name}")
+        uvt = None
+        if "uv_transform" in tt:
+            _check_table(tt["uv_transform"], "uv_transform", f"textures.{name}.uv_transform")
+            uvt = _wrap_errors(lambda: UVTransform(**tt["uv_transform"]), f"textures.{name}.")
+        if tt.get("wrap", "repeat") not in WRAP_MODES:
+            raise SceneError(f"textures.{name}.wrap: expected one of {', '.join(WRAP_MODES)}, got {tt['wrap']!r}")
         textures[name] = Texture.load(base / tt["file"], colorspace=tt.get("colorspace", "auto"),
-                                      field=f"textures.{name}.file")
+                                      field=f"textures.{name}.file", wrap=tt.get("wrap", "repeat"),
+                                      uv_transform=uvt)
 
     materials = {}
     for name, mt in doc.get("materials", {}).items():
@@ -132,7 +143,7 @@ def _object(ob, where, materials, base):
     for key in required:
         if key not in ob:
             raise SceneError(f"{where}: missing required key {key!r} for type {kind!r}")
-    common = {"type", "material", "translate", "rotate", "scale"}
+    common = {"type", "material", "translate", "rotate", "scale", "mapping"}
     for key in ob:
         if key not in common and key not in required and key not in optional:
             raise SceneError(f"{where}.{key}: not a key of type {kind!r} (allowed: "
@@ -145,10 +156,21 @@ def _object(ob, where, materials, base):
     tf = Transform(**{k: ob[k] for k in ("translate", "rotate", "scale") if k in ob})
     tf.matrix(where + ".")
     args = {k: ob[k] for k in required + optional if k in ob}
+    if "mapping" in ob:
+        _check_table(ob["mapping"], "mapping", f"{where}.mapping")
+        args["mapping"] = _wrap_errors(lambda: Projection(**ob["mapping"]), f"{where}.mapping.")
     try:
         if kind == "mesh":
-            return Mesh.load(base / ob["mesh"], material=material, transform=tf)
+            return Mesh.load(base / ob["mesh"], material=material, transform=tf, mapping=args.get("mapping"))
         cls = {"sphere": Sphere, "cylinder": Cylinder, "quad": Quad}[kind]
         return cls(material=material, transform=tf, name=where, **args)
     except SceneError as e:
         raise SceneError(f"{where}.mesh: {e}" if kind == "mesh" else str(e)) from None
+
+
+def _wrap_errors(make, where):
+    """make(), with a SceneError's message prefixed by where it comes from in the file."""
+    try:
+        return make()
+    except SceneError as e:
+        raise SceneError(f"{where}{e}") from None
