@@ -4,50 +4,94 @@
  * theta in [theta_min, theta_max], in the frame (origin; x = axis_x, z = axis_z,
  * y = z x x). No caps; both sides can be hit.
  *
- * Intersection: the 2-D quadratic |(fx, fy) + t (dx, dy)|^2 = r^2 in the
- * frame's xy plane (pbrt-v4 Cylinder::BasicIntersect), solved as for the sphere
- * (Haines et al., Ray Tracing Gems ch. 7): disc = r^2 - l^2 with l the
- * distance from the axis to the projected ray, from the 2-D cross product
- * fx dy - fy dx (Kahan's FMA algorithm, geom.h), then the stable roots
- * t0 = c/q, t1 = q/a. A root whose point lies outside the z or theta range is
- * not a hit, and the ray goes on to the other root (the far wall's inside).
- * theta = atan2(y, x) - theta_min is reduced modulo 2pi into [0, 2pi) before
- * the comparison with theta_max - theta_min, so a range may start anywhere
- * ([-0.5, 1.0], [5.5, 7.0], [0, 2pi]).
+ * Intersection: the quadratic |f_perp + t d_perp|^2 = r^2 of the ray's
+ * components across the axis (f = org - origin; pbrt-v4 Cylinder::BasicIntersect
+ * writes it in the frame), solved as Haines et al. solve the sphere's ("Precision
+ * Improvements for Ray/Sphere Intersection", Ray Tracing Gems ch. 7, 2019):
+ * disc = r^2 - l^2 from the distance l between the axis and the ray's line,
+ * then the stable roots t0 = c/q, t1 = q/a. It is computed in world space, not
+ * in the frame: l |d_perp| = (f x dir) . axis_z with f carried exactly as a
+ * TwoSum pair and f x dir by Kahan's FMA algorithm (geom.h): for a ray aimed
+ * at the cylinder f x dir is small, and the decision and the hit point keep an
+ * accuracy of about u r however far the origin is (rotating f into the frame
+ * first would cost u |f|, see sphere.h). The hit points come from the closest
+ * approach of the two lines -- radial part w (dir x axis_z) / a, axial
+ * coordinate (f x dir).(axis_z x dir) / a -- plus or minus the half chord
+ * sqrt(disc / a) along dir, not from org + t dir. Rays nearly parallel to the
+ * axis take another route (cylinder_ray).
+ *
+ * A root whose point lies outside the z or theta range is not a hit and the
+ * ray goes on to the other root (the far wall's inside). theta = atan2(y, x) -
+ * theta_min is reduced modulo 2pi into [0, 2pi] before the comparison with
+ * theta_max - theta_min, so a range may start anywhere ([-0.5, 1.0], [5.5, 7.0],
+ * [0, 2pi]).
  *
  * Texture mapping (lecture): s = (theta - theta_min) / (theta_max - theta_min),
  * t = (z - z_min) / (z_max - z_min), uv = (s, t); dpdu = (theta_max -
- * theta_min) dP/dtheta, dpdv = (z_max - z_min) axis_z, so dpdu x dpdv points
- * outward (away from the axis) like ng.
- *
- * Accuracy: the ray is rotated into the frame with plain dot products, so the
- * hit is located to about u |org - origin| (not u r as for the sphere): a
- * cylinder small against its distance from the ray origin gets uv errors of
- * order u |org - origin| / r (tests/test_primitives.py measures them). */
+ * theta_min) dP/dtheta, dpdv = (z_max - z_min) axis_z, so that dpdu x dpdv
+ * points outward (away from the axis) like ng. */
 #ifndef TEXRAY_CYLINDER_H
 #define TEXRAY_CYLINDER_H
 
-/* The ray in the cylinder's frame, and what the quadratic needs. */
+/* What intersection and geometry derive from the ray. */
 typedef struct {
-    float3 f, d;           /* org - origin and dir, in the frame */
-    float f_l1;            /* |org - origin| in the 1-norm, world components (error scale of f) */
-    float a, w, disc;      /* dx^2 + dy^2, fx dy - fy dx, r^2 - l^2 */
+    float3 d_perp;         /* dir's component across the axis */
+    float3 radial_mid;     /* closest approach to the axis: its offset from the axis */
+    float a, b, c;         /* the quadratic a t^2 + 2 b t + c, c = |f_perp|^2 - r^2 */
+    float c_err;           /* bound on c's rounding error */
+    float disc;            /* r^2 - l^2 */
+    float dz;              /* dir . axis_z */
+    float z_mid;           /* axial coordinate of the closest approach (aimed rays) */
+    float fz;              /* f . axis_z (other rays) */
+    int aimed;             /* which of the two: see cylinder_ray */
+    float t_near, t_far;   /* the roots, sorted */
+    int near_ok, far_ok;   /* 0 for a root that is the surface the ray starts on (see below) */
 } CylRay;
 
+/* Two ways to the signed distance w = l |d_perp| and to the hit's axial
+ * coordinate, each accurate where the other is not:
+ * - w = (f x dir) . axis_z, z = z_mid +- h dz, for rays aimed at the cylinder
+ *   from afar: f x dir is small (|f| sin(f, dir)), and its rounding too;
+ * - w = f . (dir x axis_z), z = f . axis_z + t dz, for rays nearly parallel to
+ *   the axis, where the closest approach of the two lines runs away (z_mid is
+ *   then large and cancels against h dz) and dir x axis_z is small.
+ * The first is used when |f x dir| <= |f| |dir x axis_z| (the direction is
+ * closer to f's than to the axis'): its error u |f x dir| is then the smaller. */
 inline CylRay cylinder_ray(__global const Cylinder* cy, float3 org, float3 dir)
 {
     __global const float4* w4 = (__global const float4*)cy;
     float4 o = w4[0];
-    float3 ax = w4[1].xyz, az = w4[2].xyz;
-    float3 ay = cross3(az, ax);
-    float3 f = org - o.xyz;
+    float3 az = w4[2].xyz;
+    float r = o.w;
+    float3 fh, fl;
+    tx_two_diff3(org, o.xyz, &fh, &fl);
+    float3 d_cross_z = tx_cross_accurate(dir, az);
+    float3 f_cross_d = tx_cross_accurate(fh, dir) + cross3(fl, dir);   /* |fl| <= u |fh|: plain is enough */
+    float3 f_cross_z = tx_cross_accurate(fh, az) + cross3(fl, az);     /* f_perp turned a right angle */
     CylRay c;
-    c.f = (float3)(dot3(f, ax), dot3(f, ay), dot3(f, az));
-    c.d = (float3)(dot3(dir, ax), dot3(dir, ay), dot3(dir, az));
-    c.f_l1 = fabs(f.x) + fabs(f.y) + fabs(f.z);
-    c.a = c.d.x * c.d.x + c.d.y * c.d.y;
-    c.w = tx_diff_prod(c.f.x, c.d.y, c.f.y, c.d.x);
-    c.disc = o.w * o.w - c.w * c.w / c.a;
+    c.dz = dot3(dir, az);
+    c.d_perp = dir - c.dz * az;
+    c.a = dot3(d_cross_z, d_cross_z);
+    c.aimed = dot3(f_cross_d, f_cross_d) <= dot3(fh, fh) * c.a;
+    float w = c.aimed ? dot3(f_cross_d, az) : dot3(fh, d_cross_z) + dot3(fl, d_cross_z);
+    float ff = dot3(f_cross_z, f_cross_z), rr = r * r;
+    c.disc = rr - w * w / c.a;
+    c.b = dot3(f_cross_z, d_cross_z);                   /* = f_perp . d_perp */
+    c.c = ff - rr;
+    /* f_cross_z is accurate to 2u per component: |f_perp|^2 to gamma(3) + 4u,
+     * r^2 and the subtraction add u each, within gamma(8) (|f_perp|^2 + r^2). */
+    c.c_err = gamma_n(8.0f) * (ff + rr);
+    c.radial_mid = (w / c.a) * d_cross_z;
+    c.z_mid = -dot3(f_cross_d, d_cross_z) / c.a;
+    c.fz = dot3(fh, az) + dot3(fl, az);
+    float q = -(c.b + copysign(sqrt(c.a * c.disc), c.b));
+    float t_small = c.c / q, t_large = q / c.a;        /* |c/q| <= |q/a| */
+    int c_ok = fabs(c.c) > c.c_err;
+    int small_first = t_small <= t_large;
+    c.t_near = small_first ? t_small : t_large;
+    c.t_far = small_first ? t_large : t_small;
+    c.near_ok = small_first ? c_ok : 1;
+    c.far_ok = small_first ? 1 : c_ok;
     return c;
 }
 
@@ -61,14 +105,28 @@ inline float cylinder_theta_rel(float x, float y, float theta_min)
     return d < 0.0f ? d + 2.0f * M_PI_F : d;
 }
 
-/* Whether root t is in (tmin, tmax) and its point in the z and theta ranges. */
-inline int cylinder_in_range(const CylRay* c, float t, float tmin, float tmax,
-                             float z_min, float z_max, float theta_min, float span)
+/* The hit point of root t, the near (side = -1) or the far (side = +1) one,
+ * relative to the origin: its offset from the axis (world space) and its
+ * axial coordinate. */
+inline float3 cylinder_point(const CylRay* c, float t, float side, float* z)
+{
+    float h = side * sqrt(TX_MAX(c->disc, 0.0f) / c->a);
+    *z = c->aimed ? c->z_mid + h * c->dz : c->fz + t * c->dz;
+    return c->radial_mid + h * c->d_perp;
+}
+
+/* Whether root t (side -1 near, +1 far) is in (tmin, tmax) and its point in the z and theta ranges. */
+inline int cylinder_in_range(__global const Cylinder* cy, const CylRay* c, float t, float side,
+                             float tmin, float tmax, float span)
 {
     if (!(t > tmin && t < tmax)) return 0;
-    float z = c->f.z + t * c->d.z;
-    if (!(z >= z_min && z <= z_max)) return 0;
-    return cylinder_theta_rel(c->f.x + t * c->d.x, c->f.y + t * c->d.y, theta_min) <= span;
+    __global const float4* w4 = (__global const float4*)cy;
+    float3 ax = w4[1].xyz, az = w4[2].xyz;
+    float z;
+    float3 radial = cylinder_point(c, t, side, &z);
+    if (!(z >= cy->z_min && z <= cy->z_max)) return 0;
+    float x = dot3(radial, ax), y = dot3(radial, cross3(az, ax));
+    return cylinder_theta_rel(x, y, cy->theta_min) <= span;
 }
 
 /* Nearest hit with t in (tmin, tmax) whose point lies in the z and theta
@@ -77,44 +135,43 @@ inline int cylinder_in_range(const CylRay* c, float t, float tmin, float tmax,
  * anywhere give a miss. A root within the rounding error of c (the origin is
  * on the surface to float precision) is the surface the ray starts from and
  * is skipped (pbrt-v4 6.8.5 rejects such t likewise). */
-inline int cylinder_intersect(__global const Cylinder* cy, float3 org, float3 dir, float tmin, float tmax, float* t)
+inline int cylinder_intersect(__global const Cylinder* cy, float3 org, float3 dir, float tmin, float tmax,
+                              float* t)
 {
-    float r = cy->radius, z_min = cy->z_min, z_max = cy->z_max;
-    float theta_min = cy->theta_min, span = cy->theta_max - cy->theta_min;
-    if (!(r > 0.0f && z_max > z_min && span > 0.0f)) return 0;
+    float r = cy->radius, span = cy->theta_max - cy->theta_min;
+    if (!(r > 0.0f && cy->z_max > cy->z_min && span > 0.0f)) return 0;
     CylRay c = cylinder_ray(cy, org, dir);
     if (!(c.a > 0.0f && c.disc >= 0.0f)) return 0;
-    float b = c.f.x * c.d.x + c.f.y * c.d.y;
-    float ff = c.f.x * c.f.x + c.f.y * c.f.y, rr = r * r;
-    float cc = ff - rr;
-    /* Bound on cc's error: fx, fy are off by up to gamma(4) |f|_1 each (the
-     * subtraction and the rotation), which moves fx^2 + fy^2 by twice that
-     * times |fx| + |fy|; the squares, r^2 and the subtraction add gamma(4). */
-    float dc = gamma_n(4.0f) * (ff + rr + 2.0f * (fabs(c.f.x) + fabs(c.f.y)) * c.f_l1);
-    float q = -(b + copysign(sqrt(c.a * c.disc), b));
-    float t_small = cc / q, t_large = q / c.a;     /* |cc/q| <= |q/a| */
-    int known_small = fabs(cc) > dc;
-    float t_near = TX_MIN(t_small, t_large), t_far = TX_MAX(t_small, t_large);
-    int known_near = t_near == t_small ? known_small : 1;
-    int known_far = t_far == t_small ? known_small : 1;
-    if (known_near && cylinder_in_range(&c, t_near, tmin, tmax, z_min, z_max, theta_min, span)) {
-        *t = t_near;
+    if (c.near_ok && cylinder_in_range(cy, &c, c.t_near, -1.0f, tmin, tmax, span)) {
+        *t = c.t_near;
         return 1;
     }
-    if (known_far && cylinder_in_range(&c, t_far, tmin, tmax, z_min, z_max, theta_min, span)) {
-        *t = t_far;
+    if (c.far_ok && cylinder_in_range(cy, &c, c.t_far, 1.0f, tmin, tmax, span)) {
+        *t = c.t_far;
         return 1;
     }
     return 0;
 }
 
-/* Geometry of the hit at t found by cylinder_intersect. The frame point
- * (x, y) = f + t d is projected onto the circle of radius r (pbrt-v4
- * Cylinder::InteractionFromIntersection); z = fz + t dz. Error bound: pbrt-v4's
- * gamma(3) |(x, y, 0)| for the projected point, taken to world space with the
- * rotation's and the origin's roundings (gamma(5) on |x||axis_x| + |y||axis_y|
- * + |z||axis_z|, plus gamma(1) |p|). The error of z along the axis, from t,
- * moves the point within the surface and is left out, as in pbrt-v4. */
+/* Whether t (from cylinder_intersect) is the near root: as sphere_root_is_near,
+ * t is matched against the same computation's roots; where they are equal,
+ * cylinder_intersect took the near one if it was ok and in range. */
+inline int cylinder_root_is_near(__global const Cylinder* cy, const CylRay* c, float t)
+{
+    if (c->t_near == c->t_far)
+        return c->near_ok
+            && cylinder_in_range(cy, c, t, -1.0f, -INFINITY, INFINITY, cy->theta_max - cy->theta_min);
+    return fabs(t - c->t_near) <= fabs(t - c->t_far);
+}
+
+/* Geometry of the hit at t found by cylinder_intersect: the root's point
+ * (cylinder_point; near or far by cylinder_root_is_near), its radial offset
+ * projected onto the circle of radius r (pbrt-v4
+ * Cylinder::InteractionFromIntersection). Error bound: gamma(7) of the radial
+ * offset per component (its length is r to within the rounding of the
+ * projection, as for the sphere) plus gamma(2) of the three terms summed into
+ * p. The axial coordinate's error moves the point within the surface and is
+ * left out, as in pbrt-v4 6.8.5. */
 inline void cylinder_geom(__global const Cylinder* cy, float3 org, float3 dir, float t, Geom* g)
 {
     __global const float4* w4 = (__global const float4*)cy;
@@ -124,20 +181,15 @@ inline void cylinder_geom(__global const Cylinder* cy, float3 org, float3 dir, f
     float r = o.w, z_min = cy->z_min, z_max = cy->z_max;
     float span = cy->theta_max - cy->theta_min;
     CylRay c = cylinder_ray(cy, org, dir);
-    float x = c.f.x + t * c.d.x, y = c.f.y + t * c.d.y, z = c.f.z + t * c.d.z;
-    float rho = hypot(x, y);
-    if (rho > 0.0f) {
-        x *= r / rho;
-        y *= r / rho;
-    } else {                         /* only for a radius below rounding: any point of the circle */
-        x = r;
-        y = 0.0f;
-    }
-    float3 radial = x * ax + y * ay;
-    g->p = o.xyz + radial + z * az;
-    g->perr = gamma_n(5.0f) * (fabs(x) * abs3(ax) + fabs(y) * abs3(ay) + fabs(z) * abs3(az))
-            + gamma_n(1.0f) * abs3(g->p);
-    g->ng = tx_unit_or(radial, ax);
+    float z;
+    float3 radial = cylinder_point(&c, t, cylinder_root_is_near(cy, &c, t) ? -1.0f : 1.0f, &z);
+    float3 n = tx_unit_or(radial, ax);          /* radial = 0 only for r below rounding */
+    radial = r * n;
+    float3 axial = z * az;
+    g->p = o.xyz + radial + axial;
+    g->perr = gamma_n(7.0f) * abs3(radial) + gamma_n(2.0f) * (abs3(o.xyz) + abs3(radial) + abs3(axial));
+    g->ng = n;
+    float x = dot3(radial, ax), y = dot3(radial, ay);
     float rel = cylinder_theta_rel(x, y, cy->theta_min);
     g->uv = (float2)(clamp(rel / span, 0.0f, 1.0f), clamp((z - z_min) / (z_max - z_min), 0.0f, 1.0f));
     g->dpdu = span * (x * ay - y * ax);

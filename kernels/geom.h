@@ -13,6 +13,9 @@
  * plain float32 accuracy, never a wrong sign or a NaN. */
 #ifndef TEXRAY_GEOM_H
 #define TEXRAY_GEOM_H
+/* No FMA contraction (as triangle.h): sphere_geom and cylinder_geom recompute
+ * the intersection's roots and must get the very same floats. */
+#pragma OPENCL FP_CONTRACT OFF
 
 typedef struct {            /* what the surface stage needs about a hit, in world space */
     float3 p;               /* the hit point, on the surface */
@@ -65,7 +68,7 @@ inline float3 tx_unit_or(float3 v, float3 fallback)
 {
     float m = TX_MAX(TX_MAX(fabs(v.x), fabs(v.y)), fabs(v.z));
     if (!(m > 0.0f && m <= FLT_MAX)) return fallback;
-    v = v * (1.0f / m);
+    v = v / m;                         /* not v * (1 / m): 1 / m overflows for tiny denormal m */
     return v * rsqrt(dot3(v, v));
 }
 

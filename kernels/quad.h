@@ -12,15 +12,30 @@
  *     f(u) = ((pa(u) - org) x dir) . pb(u),  pa(u) = lerp(P0, P1, u), pb(u) = lerp(P3 - P0, P2 - P1, u)
  * vanishes, a quadratic c2 u^2 + c1 u + c0 (c0 = f(0), c0 + c1 + c2 = f(1),
  * c2 = ((P1 - P0) x (P3 - P2)) . dir). For each root u in [0, 1] the closest
- * points of the ray and the line give t and v. Everything is relative to the
- * ray origin (so a patch far from the world origin costs nothing when the ray
- * starts near it). Degenerate cases need no branch: a parallelogram or
- * trapezoid has c2 = 0, where the stable pair of roots u = q / c2, c0 / q
- * (q = -(c1 + sign(c1) sqrt(disc)) / 2) gives one infinite root (rejected) and
- * the linear one; c2 = c1 = 0 or a ray parallel to the line (|dir x pb| = 0)
- * give NaN or infinite values that every range test rejects. The discriminant
- * uses Kahan's FMA difference of products (geom.h) so that nearly double roots
- * (rays near the patch's silhouette) keep their accuracy. */
+ * points of the ray and the line give t and v.
+ *
+ * Degenerate cases need no branch: a parallelogram or trapezoid has c2 = 0,
+ * where the stable pair of roots u = q / c2, c0 / q (q = -(c1 + sign(c1)
+ * sqrt(disc)) / 2) gives one infinite root (rejected) and the linear one;
+ * c2 = c1 = 0, or a ray parallel to the line (|dir x pb| = 0), give NaN or
+ * infinite values that every range test rejects.
+ *
+ * Three changes to the published listing, for accuracy:
+ * - Which parameter is solved for first. A ray nearly parallel to the v lines
+ *   (a grazing ray along them) is nearly coplanar with all of them: f(u) is
+ *   then small for every u and the root ill-conditioned (uv errors of 1e-2 at
+ *   89.9 degrees from the normal of a saddle, against 6e-5 the other way).
+ *   The patch is transposed (P1 and P3 swapped, u and v exchanged) when the
+ *   ray is closer to parallel to the mean v edge (P3 - P0) + (P2 - P1) than to
+ *   the mean u edge (P1 - P0) + (P2 - P3).
+ * - (P0 - org) x dir and (P1 - org) x dir, from which c0, f(1) and the v of
+ *   each root follow, use the exact differences (TwoSum pairs) and Kahan's FMA
+ *   cross product (geom.h): for a ray aimed at the patch these vectors are
+ *   small and so are their errors, so (u, v) keeps ~1e-7 accuracy however far
+ *   the origin is (the listing's float32 form loses u |P - org| / size, 1e-3
+ *   at 1e4 for a patch of size 1).
+ * - The discriminant uses Kahan's difference of products, so that nearly
+ *   double roots (rays near a curved patch's silhouette) keep their accuracy. */
 #ifndef TEXRAY_QUAD_H
 #define TEXRAY_QUAD_H
 
@@ -30,20 +45,22 @@ inline float3 quad_p1(__global const QuadVerts* q) { return ((__global const flo
 inline float3 quad_p2(__global const QuadVerts* q) { return ((__global const float4*)q)[2].xyz; }
 inline float3 quad_p3(__global const QuadVerts* q) { return ((__global const float4*)q)[3].xyz; }
 
-/* The (v, t) of root u (Reshetov's listing 8-1): the ray org + t dir meets the
- * line pa + v pb (relative to org) where t = ((dir x pb) x pa) . pb / |dir x pb|^2
- * and v = ((dir x pb) x pa) . dir / |dir x pb|^2. Returns 1 and updates *best
- * (t, u, v) when u and v are in [0, 1] and t in (tmin, best.t). */
-inline int quad_try_root(float u, float3 q00, float3 q10, float3 e00, float3 e11, float3 dir,
-                         float tmin, float t_floor, float3* best)
+/* The (v, t) of root u (the chapter's second step): the ray org + t dir meets the
+ * line pa + v pb (pa = P(u, 0) - org, pb = P(u, 1) - P(u, 0)) where
+ *     t = (dir x pb) . (pa x pb) / |dir x pb|^2,  v = (dir x pb) . (pa x dir) / |dir x pb|^2.
+ * pa x dir is interpolated from the accurate end values w0 = (P0 - org) x dir,
+ * w1 = (P1 - org) x dir (it is linear in u). Updates *best = (t, u, v) and
+ * returns 1 when u and v are in [0, 1] and t in (max(tmin, t_floor), best.t). */
+inline int quad_try_root(float u, float3 q00, float3 q10, float3 w0, float3 w1, float3 e00, float3 e11,
+                         float3 dir, float tmin, float t_floor, float3* best)
 {
     if (!(u >= 0.0f && u <= 1.0f)) return 0;
     float3 pa = q00 + u * (q10 - q00);
     float3 pb = e00 + u * (e11 - e00);
+    float3 pa_x_dir = w0 + u * (w1 - w0);
     float3 n = cross3(dir, pb);
     float det = dot3(n, n);
-    float3 m = cross3(n, pa);
-    float tn = dot3(m, pb), vn = dot3(m, dir);
+    float tn = dot3(n, cross3(pa, pb)), vn = dot3(n, pa_x_dir);
     if (!(det > 0.0f && vn >= 0.0f && vn <= det)) return 0;
     float t = tn / det;
     if (!(t > tmin && t > t_floor && t < best->x)) return 0;
@@ -53,30 +70,44 @@ inline int quad_try_root(float u, float3 q00, float3 q10, float3 e00, float3 e11
 
 /* Nearest hit with t in (tmin, tmax), t in units of dir (not normalized); *uv
  * receives the bilinear parameters (u, v) of the hit. NaN anywhere, a zero
- * direction and fully degenerate patches give a miss. A hit closer than the
- * rounding error of the patch's position relative to the origin (gamma(8) of
- * its largest coordinate) cannot be told from the surface the ray starts on
- * and is not reported (pbrt-v4 6.8.5's reasoning for triangles). */
+ * direction and fully degenerate patches give a miss. A hit closer than
+ * gamma(8) of the largest coordinate of the vertices relative to the origin is
+ * not reported: those differences are rounded once, and t's few further
+ * roundings stay within that bound for non-grazing rays, so such a hit cannot
+ * be told from the surface the ray starts on (pbrt-v4 6.8.5's reasoning for
+ * triangles). */
 inline int quad_intersect(__global const QuadVerts* qv, float3 org, float3 dir, float tmin, float tmax,
                           float* t, float2* uv)
 {
     float3 p0 = quad_p0(qv), p1 = quad_p1(qv), p2 = quad_p2(qv), p3 = quad_p3(qv);
-    float3 q00 = p0 - org, q10 = p1 - org, q11 = p2 - org, q01 = p3 - org;
-    float3 e00 = q01 - q00, e11 = q11 - q10;
+    float3 eu = (p1 - p0) + (p2 - p3), ev = (p3 - p0) + (p2 - p1);
+    float3 du = cross3(dir, eu), dv = cross3(dir, ev);
+    int swap = dot3(dv, dv) / dot3(ev, ev) < dot3(du, du) / dot3(eu, eu);   /* |dir|^2 sin^2 of each angle */
+    if (swap) {
+        float3 tmp = p1;
+        p1 = p3;
+        p3 = tmp;
+    }
+    float3 q00, q10, l00, l10;
+    tx_two_diff3(p0, org, &q00, &l00);
+    tx_two_diff3(p1, org, &q10, &l10);
+    float3 w0 = tx_cross_accurate(q00, dir) + cross3(l00, dir);   /* |l| <= u |q|: plain is enough */
+    float3 w1 = tx_cross_accurate(q10, dir) + cross3(l10, dir);
+    float3 e00 = p3 - p0, e11 = p2 - p1;
     float c2 = dot3(cross3(p1 - p0, p3 - p2), dir);
-    float c0 = dot3(cross3(q00, dir), e00);
-    float c1 = dot3(cross3(q10, dir), e11) - c0 - c2;
+    float c0 = dot3(w0, e00);
+    float c1 = dot3(w1, e11) - c0 - c2;
     float disc = tx_diff_prod(c1, c1, 4.0f * c2, c0);
     if (!(disc >= 0.0f)) return 0;
     float q = -0.5f * (c1 + copysign(sqrt(disc), c1));
-    float3 m = TX_MAX(TX_MAX(abs3(q00), abs3(q10)), TX_MAX(abs3(q11), abs3(q01)));
+    float3 m = TX_MAX(TX_MAX(abs3(q00), abs3(q10)), TX_MAX(abs3(p2 - org), abs3(p3 - org)));
     float t_floor = gamma_n(8.0f) * TX_MAX(TX_MAX(m.x, m.y), m.z) * rsqrt(dot3(dir, dir));
     float3 best = (float3)(tmax, 0.0f, 0.0f);
-    int hit = quad_try_root(q / c2, q00, q10, e00, e11, dir, tmin, t_floor, &best);
-    hit |= quad_try_root(c0 / q, q00, q10, e00, e11, dir, tmin, t_floor, &best);
+    int hit = quad_try_root(q / c2, q00, q10, w0, w1, e00, e11, dir, tmin, t_floor, &best);
+    hit |= quad_try_root(c0 / q, q00, q10, w0, w1, e00, e11, dir, tmin, t_floor, &best);
     if (!hit) return 0;
     *t = best.x;
-    *uv = best.yz;
+    *uv = swap ? best.zy : best.yz;
     return 1;
 }
 

@@ -27,21 +27,6 @@ inline float4 sphere_center_radius(__global const Sphere* s) { return ((__global
 inline float3 sphere_axis_x(__global const Sphere* s) { return ((__global const float4*)s)[1].xyz; }
 inline float3 sphere_axis_z(__global const Sphere* s) { return ((__global const float4*)s)[2].xyz; }
 
-/* What both functions below derive from the ray: f = org - centre as fh + fl,
- * w = f x dir (accurate), a = |dir|^2 and disc = r^2 - l^2 (l the distance from
- * the centre to the ray line). */
-typedef struct { float3 fh, fl, w; float a, disc; } SphereRay;
-
-inline SphereRay sphere_ray(float3 c, float r, float3 org, float3 dir)
-{
-    SphereRay s;
-    tx_two_diff3(org, c, &s.fh, &s.fl);
-    s.a = dot3(dir, dir);
-    s.w = tx_cross_accurate(s.fh, dir) + cross3(s.fl, dir);   /* fl x dir: |fl| <= u |fh|, plain is enough */
-    s.disc = r * r - dot3(s.w, s.w) / s.a;
-    return s;
-}
-
 /* c = |f|^2 - r^2 for f = fh + fl, to a few ulp of c even where the origin is
  * near the surface and the two terms nearly cancel (the near root c/q then keeps
  * its relative accuracy): the squares are split exactly with FMA (TwoProduct)
@@ -60,31 +45,70 @@ inline float sphere_c(float3 fh, float3 fl, float r)
     return s + err;
 }
 
+/* What intersection and geometry derive from the ray: f = org - centre as
+ * fh + fl, w = f x dir (accurate), a = |dir|^2, disc = r^2 - l^2 (l the distance
+ * from the centre to the ray's line) and the two roots, sorted. A root is not
+ * `ok` when c is within twice its error bound (sphere_c) of 0: the origin then
+ * lies on the sphere to float precision, and the root c/q is the surface the
+ * ray starts from, not a hit (pbrt-v4 6.8.5 rejects such t likewise). */
+typedef struct {
+    float3 fh, fl, w;
+    float a, disc;
+    float t_near, t_far;
+    int near_ok, far_ok;
+} SphereRay;
+
+inline SphereRay sphere_ray(float3 centre, float r, float3 org, float3 dir)
+{
+    SphereRay s;
+    tx_two_diff3(org, centre, &s.fh, &s.fl);
+    s.a = dot3(dir, dir);
+    s.w = tx_cross_accurate(s.fh, dir) + cross3(s.fl, dir);   /* |fl| <= u |fh|: plain is enough */
+    s.disc = r * r - dot3(s.w, s.w) / s.a;
+    float b = dot3(s.fh, dir);                                /* half the linear coefficient */
+    float c = sphere_c(s.fh, s.fl, r);
+    float g6 = gamma_n(6.0f);
+    int c_ok = fabs(c) > 2.0f * g6 * g6 * (dot3(s.fh, s.fh) + r * r);
+    float q = -(b + copysign(sqrt(s.a * s.disc), b));
+    float t_small = c / q, t_large = q / s.a;                 /* |c/q| <= |q/a| */
+    int small_first = t_small <= t_large;
+    s.t_near = small_first ? t_small : t_large;
+    s.t_far = small_first ? t_large : t_small;
+    s.near_ok = small_first ? c_ok : 1;
+    s.far_ok = small_first ? 1 : c_ok;
+    return s;
+}
+
 /* Nearest hit with t in (tmin, tmax), t in units of dir (not normalized).
  * Radius <= 0, a zero direction and NaN anywhere give a miss (every test is
- * written so that NaN fails it). A root within the rounding error of c (the
- * ray's origin lies on the sphere to float precision) is the surface the ray
- * starts from, not a hit (pbrt-v4 6.8.5 rejects such t likewise). */
+ * written so that NaN fails it). */
 inline int sphere_intersect(__global const Sphere* s, float3 org, float3 dir, float tmin, float tmax, float* t)
 {
     float4 cr = sphere_center_radius(s);
-    float r = cr.w;
-    float a = dot3(dir, dir);
-    if (!(r > 0.0f && a > 0.0f)) return 0;
-    SphereRay sr = sphere_ray(cr.xyz, r, org, dir);
+    if (!(cr.w > 0.0f && dot3(dir, dir) > 0.0f)) return 0;
+    SphereRay sr = sphere_ray(cr.xyz, cr.w, org, dir);
     if (!(sr.disc >= 0.0f)) return 0;
-    float b = dot3(sr.fh, dir);                      /* half the linear coefficient */
-    float c = sphere_c(sr.fh, sr.fl, r);
-    /* |c| within twice its error bound (sphere_c) of 0: the origin is on the sphere. */
-    float g6 = gamma_n(6.0f);
-    int c_known = fabs(c) > 2.0f * g6 * g6 * (dot3(sr.fh, sr.fh) + r * r);
-    float q = -(b + copysign(sqrt(a * sr.disc), b));
-    float t_small = c / q, t_large = q / a;          /* |c/q| <= |q/a| */
-    int ok_small = c_known && t_small > tmin && t_small < tmax;
-    int ok_large = t_large > tmin && t_large < tmax;
-    if (ok_small && (!ok_large || t_small < t_large)) { *t = t_small; return 1; }
-    if (ok_large) { *t = t_large; return 1; }
+    if (sr.near_ok && sr.t_near > tmin && sr.t_near < tmax) {
+        *t = sr.t_near;
+        return 1;
+    }
+    if (sr.far_ok && sr.t_far > tmin && sr.t_far < tmax) {
+        *t = sr.t_far;
+        return 1;
+    }
     return 0;
+}
+
+/* Whether t (from sphere_intersect) is the near root. The two roots of a
+ * sphere that is small against its distance can differ by an ulp or round to
+ * the same float while their points lie a diameter apart, so t is matched
+ * against the same computation's roots (FP_CONTRACT is off: both evaluate
+ * identically); where they are equal, sphere_intersect took the near one if it
+ * was ok. */
+inline int sphere_root_is_near(const SphereRay* sr, float t)
+{
+    if (sr->t_near == sr->t_far) return sr->near_ok;
+    return fabs(t - sr->t_near) <= fabs(t - sr->t_far);
 }
 
 /* Geometry of the hit at t found by sphere_intersect.
@@ -94,13 +118,15 @@ inline int sphere_intersect(__global const Sphere* s, float3 org, float3 dir, fl
  * closest point of the ray to the centre, v = dir x (f x dir) / |dir|^2,
  * plus or minus the half chord sqrt(disc) along dir^, both accurate relative
  * to r; then projected onto the sphere (p = c + r (p - c)/|p - c|) as pbrt-v4
- * does. Error bound: gamma(5) |p - c| per component for the projected offset
- * (pbrt-v4 6.8.5) plus gamma(1) |p| for the final addition of the centre.
+ * does. Error bound, after pbrt-v4 6.8.5: gamma(7) |p - c| per component for
+ * the projected offset (its length is r to within the scaling, the squared
+ * length's gamma(3) halved by the root, rsqrt's 2 ulp and two products),
+ * plus gamma(1) |p| for the final addition of the centre.
  *
- * uv = (phi/2pi, 1 - theta/pi) (header comment); u is clamped to [0, 1],
- * which matters just below the seam (phi = -tiny gives 2pi - tiny, and float32
- * 2pi rounds up), and so is v (float32 pi rounds up too). Derivatives with respect to uv: dpdu = 2pi dP/dphi,
- * dpdv = -pi dP/dtheta, with dP/dphi = (-y, x, 0) and dP/dtheta =
+ * uv = (phi/2pi, 1 - theta/pi) (header comment), both clamped to [0, 1]: just
+ * below the seam phi = -tiny gives 2pi - tiny, float32 2pi and pi round up,
+ * and phi = -0 would give u = -0. Derivatives with respect to uv:
+ * dpdu = 2pi dP/dphi, dpdv = -pi dP/dtheta, with dP/dphi = (-y, x, 0) and dP/dtheta =
  * (z cos(phi), z sin(phi), -rho) in the frame (rho = sqrt(x^2 + y^2)), so that
  * dpdu x dpdv points outward like ng. At an exact pole (rho = 0) dP/dphi
  * vanishes and phi is undefined: phi is taken as 0 (u = 0), dpdu as 2pi r axis_y
@@ -115,14 +141,13 @@ inline void sphere_geom(__global const Sphere* s, float3 org, float3 dir, float 
     float r = cr.w;
     SphereRay sr = sphere_ray(c, r, org, dir);
     float inv_a = 1.0f / sr.a;
-    float t_mid = -dot3(sr.fh, dir) * inv_a;          /* parameter of the closest point */
     float half_chord = sqrt(TX_MAX(sr.disc, 0.0f) * inv_a);
     float3 v = cross3(dir, sr.w) * inv_a;             /* closest point, relative to the centre */
-    float3 pc = v + (t < t_mid ? -half_chord : half_chord) * dir;
-    float3 n = tx_unit_or(pc, sphere_axis_z(s));   /* pc = 0 only if r is tiny against rounding */
+    float3 pc = v + (sphere_root_is_near(&sr, t) ? -half_chord : half_chord) * dir;
+    float3 n = tx_unit_or(pc, sphere_axis_z(s));      /* pc = 0 only for r below rounding */
     pc = r * n;
     g->p = c + pc;
-    g->perr = gamma_n(5.0f) * abs3(pc) + gamma_n(1.0f) * abs3(g->p);
+    g->perr = gamma_n(7.0f) * abs3(pc) + gamma_n(1.0f) * abs3(g->p);
     g->ng = n;
 
     float3 ax = sphere_axis_x(s), az = sphere_axis_z(s);
@@ -139,7 +164,8 @@ inline void sphere_geom(__global const Sphere* s, float3 org, float3 dir, float 
         dp_dphi = x * ay - y * ax;
     }
     float theta = atan2(rho, z);
-    g->uv = (float2)(TX_MIN(phi * (0.5f * M_1_PI_F), 1.0f), TX_MAX(1.0f - theta * M_1_PI_F, 0.0f));
+    float u = TX_MIN(TX_MAX(phi * (0.5f * M_1_PI_F), 0.0f), 1.0f);
+    g->uv = (float2)(u, TX_MAX(1.0f - theta * M_1_PI_F, 0.0f));
     float3 dp_dtheta = z * (cos_phi * ax + sin_phi * ay) - rho * az;
     g->dpdu = (2.0f * M_PI_F) * dp_dphi;
     g->dpdv = -M_PI_F * dp_dtheta;

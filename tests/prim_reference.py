@@ -55,14 +55,15 @@ def _quadratic_roots(a, half_b, c, disc):
 
 # --- sphere -----------------------------------------------------------------
 
-def sphere_frame(axis_x, axis_z):
+def frame(axis_x, axis_z):
+    """The frame (x, y = z x x, z) of a primitive's float32 axes, in float64."""
     ax, az = _f64(axis_x), _f64(axis_z)
     return ax, np.cross(az, ax), az
 
 
 def sphere_uv_of_point(local, axis_x, axis_z, radius):
     """uv, dpdu, dpdv, theta, phi of points given relative to the centre (on the sphere)."""
-    ax, ay, az = sphere_frame(axis_x, axis_z)
+    ax, ay, az = frame(axis_x, axis_z)
     x, y, z = local @ ax, local @ ay, local @ az
     rho = np.hypot(x, y)
     theta = np.arctan2(rho, z)
@@ -114,7 +115,7 @@ def cylinder_intersect(origin, radius, axis_x, axis_z, z_min, z_max, theta_min, 
     """Nearest hit of each ray with the partial open cylinder, t in (tmin, tmax).
     ``grow`` scales the radius by (1 + grow) and widens each range by grow times its length."""
     o0 = _f64(origin)
-    ax, ay, az = sphere_frame(axis_x, axis_z)
+    ax, ay, az = frame(axis_x, axis_z)
     r = float(radius) * (1.0 + grow)
     zr, span = float(z_max) - float(z_min), float(theta_max) - float(theta_min)
     z_lo, z_hi = float(z_min) - grow * zr, float(z_max) + grow * zr
