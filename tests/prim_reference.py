@@ -16,9 +16,8 @@ quads. Conventions are those of the kernels' header comments:
   the per-vertex uvs, dP/d(texture uv) = [dP/du dP/dv] J^-1.
 
 ``grow`` (a fraction of the primitive's size) enlarges (> 0) or shrinks (< 0) the
-primitive: radius, z and theta ranges, or the (u, v) domain. The tests use it to
-tell rays whose hit/miss is robust from rays that pass within rounding distance
-of a silhouette or a boundary.
+primitive: radius, z and theta ranges, or the (u, v) domain; the tests use it to
+set aside rays that pass within a hair of a quad's edge.
 """
 from __future__ import annotations
 
@@ -61,8 +60,9 @@ def frame(axis_x, axis_z):
     return ax, np.cross(az, ax), az
 
 
-def sphere_uv_of_point(local, axis_x, axis_z, radius):
-    """uv, dpdu, dpdv, theta, phi of points given relative to the centre (on the sphere)."""
+def sphere_uv_of_point(local, axis_x, axis_z):
+    """uv, dpdu, dpdv, theta, phi of points given relative to the centre (on the sphere).
+    Exactly at a pole dpdu is 0 here; the device's fallback there is tested on its own."""
     ax, ay, az = frame(axis_x, axis_z)
     x, y, z = local @ ax, local @ ay, local @ az
     rho = np.hypot(x, y)
@@ -97,7 +97,7 @@ def sphere_intersect(center, radius, axis_x, axis_z, org, dirs, tmin=0.0, tmax=n
     if hit.any():
         local = f[hit] + t[hit, None] * d[hit]
         local *= r / np.linalg.norm(local, axis=1, keepdims=True)
-        uv, dpdu, dpdv, _, _ = sphere_uv_of_point(local, axis_x, axis_z, r)
+        uv, dpdu, dpdv, _, _ = sphere_uv_of_point(local, axis_x, axis_z)
         out["p"][hit] = c + local
         out["ng"][hit] = local / r
         out["uv"][hit], out["dpdu"][hit], out["dpdv"][hit] = uv, dpdu, dpdv

@@ -39,3 +39,17 @@ def test_devices_command_lists_the_cpu():
                          capture_output=True, text=True, timeout=60, cwd=ROOT,
                          env={**__import__("os").environ, "PYTHONPATH": str(ROOT / "pyhost")})
     assert out.returncode == 0 and "cpu" in out.stdout
+
+
+def test_bench_command_writes_json(tmp_path, capsys):
+    import json
+    out = tmp_path / "bench.json"
+    assert main(["bench", "--device", "cpu", "--triangles", "5000", "--rays", "32", "--repeat", "1",
+                 "--size", "32x24", "--spp", "1", "--json", str(out)]) == 0
+    r = json.loads(out.read_text())
+    assert abs(r["bvh"]["triangles"] - 5000) <= 50 and r["bvh"]["sah_cost"] > 1
+    (dev,) = r["devices"].values()
+    assert dev["rays"]["primary_mrays_s"]["median"] > 0
+    frame = dev["frames"][0]
+    assert frame["spp"] == 1 and set(frame["stage_s"]) == {"raygen", "intersect", "surface", "shadow", "shade"}
+    assert "Mrays/s" in capsys.readouterr().out

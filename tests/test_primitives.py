@@ -406,11 +406,14 @@ def _random_prims(rng):
 def test_random_rays_match_reference(rt, rng):
     """For each primitive, 12000 random rays (origins inside and outside): on rays whose
     hit/miss is robust (robust_reference), the same hits as the float64 reference; on
-    hits not within 3 degrees of grazing, t within 1e-5 relative (or 8u of the origin's
-    distance to the primitive, the rounding of the origin-relative geometry, for origins
-    very near the surface), uv within 1e-4 (u on the circle: the seam is one column;
-    the sphere's poles, sin(theta) < 0.02, are test_sphere_poles'), p on the surface within
-    |perr|, ng, dpdu, dpdv within 1e-4 relative, ng perpendicular to dpdu and dpdv."""
+    hits not within 3 degrees of grazing:
+    * t within 1e-5 relative -- or, for origins very near the surface, within 8u of the
+      origin's distance to the primitive over the cosine of the angle to the normal (the
+      rounding of the origin-relative geometry, as the angle amplifies it);
+    * uv within 1e-4 (u on the circle: the seam is one column; the sphere's poles,
+      sin(theta) < 0.02, are test_sphere_poles');
+    * p on the surface to within |perr|; ng, dpdu, dpdv within 1e-4 relative; ng
+      perpendicular to dpdu and dpdv."""
     for prim, centre in _random_prims(rng):
         org, dirs = random_rays(rng, prim, centre, 12000)
         dev = prim.trace(rt, org, dirs)
@@ -429,7 +432,8 @@ def test_random_rays_match_reference(rt, rng):
         dl = dl[sel]
         reach = np.linalg.norm(org[h][sel] - np.asarray(centre), axis=1) + 2 * prim.size
         t_err = np.abs(dh["t"] - rh["t"]) * dl
-        assert np.all(t_err <= 1e-5 * rh["t"] * dl + 8 * U * reach), (prim.kind, np.max(t_err / (rh["t"] * dl)))
+        t_ok = t_err <= 1e-5 * rh["t"] * dl + 8 * U * reach / cosang[sel]
+        assert t_ok.all(), (prim.kind, np.max(t_err / (rh["t"] * dl)))
         assert uv_error(prim, dh["uv"], rh["uv"]).max() <= 1e-4, prim.kind
         assert np.all(prim.surface_distance(dh) <= np.linalg.norm(dh["perr"], axis=1)), prim.kind
         for k in ("ng", "dpdu", "dpdv"):
@@ -460,7 +464,7 @@ def test_sphere_poles(rt, rng):
         assert dev["hit"].all() and r["hit"].all()
         assert_finite_hits(dev)
         assert np.abs(dev["uv"][:, 1] - r["uv"][:, 1]).max() <= 1e-4
-        _, _, _, ref_theta, _ = ref.sphere_uv_of_point(r["p"] - prim.records[0]["center"][0], ax, az, 0.7)
+        _, _, _, ref_theta, _ = ref.sphere_uv_of_point(r["p"] - prim.records[0]["center"][0], ax, az)
         sin_t = np.sin(ref_theta)
         du = np.abs(dev["uv"][:, 0] - r["uv"][:, 0])
         du = np.minimum(du, 1 - du)
@@ -543,10 +547,13 @@ def test_grazing_rays(rt, rng):
     reference hits is hit (for quads: unless it passes within 1e-4 of an edge), with uv
     within 1e-4, and within 2e-4 at 89.9 degrees.
 
-    Measured (PoCL, float32): max uv error 3e-6 up to 89 degrees for the sphere and quads,
-    1e-5 for the cylinder; at 89.9 degrees 3e-5 (sphere), 9e-5 (quads), 6e-5 to 1e-4
-    (cylinder: its frame rotation locates the ray to u |org - origin|, and a ray 0.1 degree
-    off the tangent plane turns that into 580 times as much along the surface)."""
+    Measured (PoCL, 6 seeds), max uv error at 85 / 88 / 89 / 89.9 degrees: sphere 7e-7,
+    2e-6, 4e-6, 3.2e-5; cylinder 1.4e-6, 3.4e-6, 7e-6, 7.6e-5; planar square 2e-7 at every
+    angle; twisted and saddle patches 1.6e-6, 3.6e-6, 7e-6, 7.3e-5. The curved surfaces
+    scale as 1 / cos(angle): their hit points are known to a few u of the size, and a ray
+    0.1 degree off the tangent plane turns that into 580 times as much along the surface.
+    (Reshetov's listing as published reaches 1e-2 at 89.9 degrees on the saddle, see
+    quad.h.)"""
     for prim, sides in _grazing_prims(rng):
         for side in sides:
             for angle, bound in GRAZING_UV_BOUND.items():
