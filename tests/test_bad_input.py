@@ -1,7 +1,5 @@
 """Bad input: each a clear SceneError naming the file, field and value; never a crash,
 a hang or NaN pixels."""
-import shutil
-import warnings
 
 import numpy as np
 import pytest

@@ -1,6 +1,5 @@
 """Whole renders on the device against the float64 reference renderer (tests/reference.py)."""
 import numpy as np
-import pytest
 
 import texray as tx
 from reference import render_reference

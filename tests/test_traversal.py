@@ -1,7 +1,6 @@
 """Closest-hit and any-hit traversal on the device against float64 brute force,
 and watertightness of the ray/triangle test on shared edges and vertices."""
 import numpy as np
-import pytest
 import trimesh
 
 import texray as tx

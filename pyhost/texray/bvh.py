@@ -456,7 +456,7 @@ class _LevelBuilder:
         right children with at most ``max_leaf`` primitives.  The other axes
         keep only the first two blocks.  Stable, so segments stay sorted.
         """
-        cnt, n_right, split = seg.cnt, seg.cnt - n_left, ~leaf
+        n_right, split = seg.cnt - n_left, ~leaf
         act_l = split & (n_left > self.max_leaf)
         act_r = split & (n_right > self.max_leaf)
         blocks = [(act_l, n_left), (act_r, n_right), (~act_l, n_left), (split & ~act_r, n_right)]

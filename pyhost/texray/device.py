@@ -15,6 +15,7 @@ from __future__ import annotations
 import hashlib
 import os
 import threading
+import time
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -165,7 +166,6 @@ class Runtime:
         with self._lock:
             prg = self._programs.get(key)
             if prg is None:
-                import time
                 t0 = time.perf_counter()
                 try:
                     prg = cl.Program(self.context, source).build(options=options)

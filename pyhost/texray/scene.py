@@ -302,6 +302,17 @@ def object_frame(obj):
     return np.stack([apply_points(m, f[:1])[0], inv_t @ f[1], inv_t @ f[2], inv_t @ f[3]])
 
 
+def _placed(shape, point, where):
+    """(point, uniform scale, axis_x, axis_z) of an analytic shape in world space, after
+    checking its frame, transform, material and mapping."""
+    m, k = _similarity(shape.transform, where)
+    x, _, z = _frame(shape.axis_z, shape.axis_x, where)
+    _check_material(shape.material, where)
+    _check_mapping(shape.mapping, where)
+    rot = m[:3, :3] / k
+    return apply_points(m, point[None])[0], k, rot @ x, rot @ z
+
+
 def _check_material(m, where):
     if not isinstance(m, Material):
         raise SceneError(f"{where}material: expected a texray.Material, got {type(m).__name__}")
@@ -328,14 +339,9 @@ class Sphere:
     def world(self):
         """(center, radius, x, z) in world space, float64."""
         where = f"{self.name}: "
-        m, k = _similarity(self.transform, where)
-        c = _vec3(self.center, "center", where)
         r = _number(self.radius, "radius", where, 0.0, lo_open=True)
-        x, _, z = _frame(self.axis_z, self.axis_x, where)
-        rot = m[:3, :3] / k
-        _check_material(self.material, where)
-        _check_mapping(self.mapping, where)
-        return apply_points(m, c[None])[0], r * k, rot @ x, rot @ z
+        c, k, x, z = _placed(self, _vec3(self.center, "center", where), where)
+        return c, r * k, x, z
 
 
 @dataclass
@@ -361,7 +367,6 @@ class Cylinder:
     def world(self):
         """(origin, radius, x, z, (z_min, z_max), (theta_min, theta_max) radians) in world space."""
         where = f"{self.name}: "
-        m, k = _similarity(self.transform, where)
         r = _number(self.radius, "radius", where, 0.0, lo_open=True)
         zr = np.asarray(self.z_range, dtype=np.float64)
         tr = np.asarray(self.theta_range, dtype=np.float64)
@@ -370,12 +375,8 @@ class Cylinder:
         if tr.shape != (2,) or not np.all(np.isfinite(tr)) or not tr[0] < tr[1] or tr[1] - tr[0] > 360:
             raise SceneError(f"{where}theta_range: expected [min, max] degrees with min < max <= min + 360, "
                              f"got {self.theta_range!r}")
-        x, _, z = _frame(self.axis_z, self.axis_x, where)
-        o = _vec3(self.origin, "origin", where)
-        rot = m[:3, :3] / k
-        _check_material(self.material, where)
-        _check_mapping(self.mapping, where)
-        return apply_points(m, o[None])[0], r * k, rot @ x, rot @ z, tuple(zr * k), tuple(np.radians(tr))
+        o, k, x, z = _placed(self, _vec3(self.origin, "origin", where), where)
+        return o, r * k, x, z, tuple(zr * k), tuple(np.radians(tr))
 
 
 @dataclass
