@@ -65,7 +65,8 @@ class _Materials:
 
     def table(self):
         mats = np.zeros(max(len(self.materials), 1), layout.MATERIAL)
-        mats["diffuse_tex"] = mats["bump_tex"] = mats["normal_tex"] = mats["specular_tex"] = -1
+        for role in ("diffuse_tex", "specular_tex", "shininess_tex", "label_tex", "bump_tex", "normal_tex"):
+            mats[role] = -1
         any_specular = False
         for i, m in enumerate(self.materials):
             kd, ks, n = m.validate(f"material {i}: ")

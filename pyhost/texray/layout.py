@@ -96,12 +96,15 @@ QUAD_SHADE = np.dtype([
     ("material", "<u4"), ("object", "<u4"), ("prim", "<u4"), ("flags", "<u4"),
 ])
 
-# --- Material: 48 bytes -----------------------------------------------------
+# --- Material: 64 bytes -----------------------------------------------------
 # Texture slots are indices into the texture table, -1 = none.
 MATERIAL = np.dtype([
     ("diffuse", "<f4", (3,)), ("diffuse_tex", "<i4"),
     ("specular", "<f4", (3,)), ("shininess", "<f4"),
-    ("specular_tex", "<i4"), ("bump_tex", "<i4"), ("normal_tex", "<i4"), ("pad0", "<i4"),
+    # texture indices into the TEXTURE table, -1 = role unused
+    ("specular_tex", "<i4"), ("shininess_tex", "<i4"), ("label_tex", "<i4"), ("bump_tex", "<i4"),
+    ("normal_tex", "<i4"), ("normal_mode", "<u4"),     # normal_mode: kernels' TX_NORMAL_* flags
+    ("bump_height", "<f4"), ("bump_delta", "<f4"),      # world units per texture unit; uv step (<= 0: one texel)
 ])
 
 # --- Texture table entry: 48 bytes ------------------------------------------
