@@ -54,6 +54,15 @@ inline float3 offset_point(float3 p, float3 n, float offset)
     return q;
 }
 
+/* Loop over the scene's n lights. With TX_MAX_LIGHTS (a bound the host compiles
+ * in: 1, 2, 4 or 8) the trip count is a compile-time constant, so the compiler
+ * can unroll it; the body runs only for i < n. Without it, a plain runtime loop. */
+#if TX_MAX_LIGHTS
+#define FOR_EACH_LIGHT(i, n) for (uint i = 0; i < (uint)TX_MAX_LIGHTS; ++i) if (i < (n))
+#else
+#define FOR_EACH_LIGHT(i, n) for (uint i = 0; i < (n); ++i)
+#endif
+
 inline float3 ray_org(__global const Ray* r) { return vload3(0, r->org); }
 inline float3 ray_dir(__global const Ray* r) { return vload3(0, r->dir); }
 

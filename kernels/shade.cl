@@ -18,7 +18,7 @@ __kernel void shade(__global const Ray* rays, __global const Surface* surf, __gl
         float3 kd = vload3(0, s->kd), ks = vload3(0, s->ks);
         float3 v = -normalize3(ray_dir(rays + gid));
         c = ambient.xyz * kd;
-        for (uint i = 0; i < nlights; ++i) {
+        FOR_EACH_LIGHT(i, nlights) {
             if (!vis[(size_t)gid * nlights + i]) continue;
             float3 l = vload3(0, lights[i].position) - p;
             float d2 = dot3(l, l);

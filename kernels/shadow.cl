@@ -16,7 +16,7 @@ __kernel void shadow(__global const Surface* surf, __global uchar* vis, uint n, 
     if (!s->valid) return;
     float3 ng = vload3(0, s->ng);
     float3 org = offset_point(vload3(0, s->p), ng, s->offset);
-    for (uint i = 0; i < nlights; ++i) {
+    FOR_EACH_LIGHT(i, nlights) {
         float3 d = vload3(0, lights[i].position) - org;
         uchar v = 0;
         if (dot3(d, ng) > 0.0f) {

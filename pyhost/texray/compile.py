@@ -11,7 +11,7 @@ import numpy as np
 from . import layout
 from .accel import SceneBVH, build_scene_bvh
 from .errors import SceneError
-from .features import Features, stack_size_for
+from .features import Features, max_lights_for, stack_size_for
 from .scene import (Cylinder, Mesh, Quad, Scene, Sphere, _rgb, degenerate_faces, object_frame,
                     warn_degenerate)
 
@@ -204,7 +204,7 @@ def compile_scene(scene: Scene, shadows: bool = True) -> CompiledScene:
                         shadows=shadows and bool(scene.lights),
                         spheres=len(spheres) > 0, cylinders=len(cylinders) > 0, quads=len(quad_verts) > 0,
                         projections=objects is not None,
-                        stack_size=stack_size_for(tree.depth))
+                        stack_size=stack_size_for(tree.depth), max_lights=max_lights_for(len(scene.lights)))
     return CompiledScene(
         tri_verts=tri_verts, tri_shade=tri_shade, spheres=spheres, cylinders=cylinders,
         quad_verts=quad_verts, quad_shade=quad_shade, nodes=tree.nodes, normals=normals, uvs=uvs,

@@ -2,6 +2,7 @@
 kernel compile-time definitions. Every ``#if`` in kernels/ uses a name emitted here."""
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 
@@ -17,6 +18,29 @@ class Features:
     projections: bool = False      # some object generates its uv by a projection mapping
     aovs: bool = False             # the surface stage writes AOVs
     stack_size: int = 64           # BVH traversal stack; >= the tree's depth
+    max_lights: int = 0            # bound on the light count (1, 2, 4 or 8: loops unrolled); 0 = any count
+
+    @classmethod
+    def generic(cls, stack_size: int = 128) -> "Features":
+        """Every feature compiled in (AOVs aside): the one program that renders any scene
+        whose BVH fits ``stack_size``; the benchmark's baseline for specialization."""
+        flags = {f.name: True for f in dataclasses.fields(cls) if f.type in (bool, "bool")}
+        flags["aovs"] = False
+        return cls(**flags, stack_size=stack_size, max_lights=0)
+
+    def covers(self, other: "Features") -> bool:
+        """True when a program built for ``self`` renders a scene that needs ``other``."""
+        for f in dataclasses.fields(self):
+            a, b = getattr(self, f.name), getattr(other, f.name)
+            if f.name == "stack_size":
+                if a < b:
+                    return False
+            elif f.name == "max_lights":
+                if a and (not b or a < b):
+                    return False
+            elif b and not a:
+                return False
+        return True
 
 
 def stack_size_for(depth: int) -> int:
@@ -26,6 +50,15 @@ def stack_size_for(depth: int) -> int:
     while size < depth + 1:
         size *= 2
     return size
+
+
+def max_lights_for(n: int) -> int:
+    """The light-count bound compiled in for ``n`` lights: the next power of two up to 8,
+    0 (a runtime loop) above that, so few program variants exist."""
+    for bound in (1, 2, 4, 8):
+        if n <= bound:
+            return bound
+    return 0
 
 
 def compile_options(f: Features) -> dict[str, int]:
@@ -41,4 +74,5 @@ def compile_options(f: Features) -> dict[str, int]:
         "TX_PROJECTIONS": int(f.projections),
         "TX_AOVS": int(f.aovs),
         "TX_STACK_SIZE": int(f.stack_size),
+        "TX_MAX_LIGHTS": int(f.max_lights),
     }
