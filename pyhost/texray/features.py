@@ -17,6 +17,8 @@ class Features:
     quads: bool = False
     projections: bool = False      # some object generates its uv by a projection mapping
     aovs: bool = False             # the surface stage writes AOVs
+    bump: bool = False             # some material has a bump map (kernels/bump.h)
+    normal_maps: bool = False      # some material has a normal map (kernels/bump.h)
     stack_size: int = 64           # BVH traversal stack; >= the tree's depth
     max_lights: int = 0            # bound on the light count (1, 2, 4 or 8: loops unrolled); 0 = any count
 
@@ -73,6 +75,8 @@ def compile_options(f: Features) -> dict[str, int]:
         "TX_QUADS": int(f.quads),
         "TX_PROJECTIONS": int(f.projections),
         "TX_AOVS": int(f.aovs),
+        "TX_BUMP": int(f.bump),
+        "TX_NORMAL_MAPS": int(f.normal_maps),
         "TX_STACK_SIZE": int(f.stack_size),
         "TX_MAX_LIGHTS": int(f.max_lights),
     }

@@ -104,8 +104,16 @@ MATERIAL = np.dtype([
     # texture indices into the TEXTURE table, -1 = role unused
     ("specular_tex", "<i4"), ("shininess_tex", "<i4"), ("label_tex", "<i4"), ("bump_tex", "<i4"),
     ("normal_tex", "<i4"), ("normal_mode", "<u4"),     # normal_mode: kernels' TX_NORMAL_* flags
-    ("bump_height", "<f4"), ("bump_delta", "<f4"),      # world units per texture unit; uv step (<= 0: one texel)
+    ("bump_height", "<f4"), ("bump_delta", "<f4"),      # world units per texture unit; step: BUMP_DELTA_*
 ])
+# normal_mode bits (texray.bump.NormalMap): the green channel points down (DirectX), and
+# the map holds object-space rather than tangent-space normals.
+TX_NORMAL_DIRECTX = 1
+TX_NORMAL_OBJECT = 2
+# bump_delta: > 0 the central-difference step in texture coordinates; BUMP_DELTA_TEXEL one
+# texel of the level in use; BUMP_DELTA_ANALYTIC the exact gradient of the bilinear interpolant.
+BUMP_DELTA_TEXEL = 0.0
+BUMP_DELTA_ANALYTIC = -1.0
 
 # --- Texture table entry: 48 bytes ------------------------------------------
 # Texels are RGBA half floats, linear, row 0 = the file's top row; a texture
@@ -157,6 +165,7 @@ SURFACE = np.dtype([
     ("ns", "<f4", (3,)), ("shininess", "<f4"),   # ns faces the incoming ray
     ("kd", "<f4", (3,)), ("pad0", "<f4"),
     ("ks", "<f4", (3,)), ("pad1", "<f4"),
+    ("lift", "<f4", (3,)), ("pad2", "<f4"),      # shadow-ray origin p + lift (Hanika's terminator fix; 0: none)
 ])
 
 # Hit.prim packs the primitive kind above the index of that kind's array.
@@ -186,6 +195,7 @@ CONSTANTS = {
     "AOV_FLOATS": AOV_FLOATS, **{f"AOV_{k.upper()}": v[0] for k, v in AOVS.items()},
     "TRI_HAS_NORMALS": TRI_HAS_NORMALS,
     "TRI_HAS_UVS": TRI_HAS_UVS,
+    "TX_NORMAL_DIRECTX": TX_NORMAL_DIRECTX, "TX_NORMAL_OBJECT": TX_NORMAL_OBJECT,
 }
 
 
