@@ -149,6 +149,34 @@ class Runtime:
         self._lock = threading.Lock()
         self.build_log = []          # (options, seconds, from_cache) per program built in this process
 
+    def local_size(self, override=None):
+        """Work-group size for the one-ray-per-work-item kernels, or None to let the driver
+        choose. ``override`` (the render's ``local_size``) or ``TEXRAY_LOCAL_SIZE`` wins;
+        0 means "driver's choice". Otherwise the value of :data:`LOCAL_SIZES` for this
+        device's kind (measured with ``texray bench --local-sizes``), capped by the
+        device's maximum work-group size."""
+        value = override
+        if value is None and os.environ.get("TEXRAY_LOCAL_SIZE"):
+            try:
+                value = int(os.environ["TEXRAY_LOCAL_SIZE"])
+            except ValueError:
+                raise DeviceError(f"TEXRAY_LOCAL_SIZE: expected an integer, got "
+                                  f"{os.environ['TEXRAY_LOCAL_SIZE']!r}") from None
+        if value is None:
+            value = LOCAL_SIZES.get(_device_kind(self.device), LOCAL_SIZES["default"])
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise DeviceError(f"local_size: expected a non-negative integer, got {value!r}")
+        if value == 0:
+            return None
+        return min(value, self.device.max_work_group_size)
+
+    def launch_size(self, n: int, local=None):
+        """(global, local) sizes covering ``n`` work-items: the global size rounded up to a
+        multiple of the local one (kernels ignore ids >= n)."""
+        if local is None:
+            return (max(n, 1),), None
+        return ((max(n, 1) + local - 1) // local * local,), (local,)
+
     @property
     def fp64(self):
         return "cl_khr_fp64" in self.device.extensions
@@ -186,6 +214,28 @@ def _kernel_sources_digest() -> str:
             h.update(p.name.encode())
             h.update(p.read_bytes())
     return h.hexdigest()
+
+
+def _device_kind(dev) -> str:
+    """'pocl', 'nvidia', 'amd', 'intel-gpu', 'intel-cpu' or 'other': the keys of LOCAL_SIZES."""
+    platform = dev.platform.name.lower()
+    vendor = dev.vendor.lower()
+    if "portable computing language" in platform or "pocl" in platform:
+        return "pocl"
+    if "nvidia" in vendor:
+        return "nvidia"
+    if "advanced micro devices" in vendor or "amd" in vendor:
+        return "amd"
+    if "intel" in vendor:
+        return "intel-gpu" if dev.type & cl.device_type.GPU else "intel-cpu"
+    return "other"
+
+
+# Work-group size per device kind for the per-ray kernels. 0 = the driver's choice.
+# pocl: measured with `texray bench --local-sizes` (README, Performance); GPUs: a
+# multiple of the SIMD width (NVIDIA warp 32, AMD wavefront 64, Intel SIMD 8-32)
+# that keeps enough groups in flight for incoherent traversal.
+LOCAL_SIZES = {"pocl": 0, "nvidia": 64, "amd": 64, "intel-gpu": 64, "intel-cpu": 0, "other": 0, "default": 0}
 
 
 _runtimes: dict = {}

@@ -91,3 +91,42 @@ def write_exr_layers(path, rgb, aovs):
     out.close()
     if not ok:
         raise SceneError(f"output: writing {path} failed: {out.geterror()}")
+
+
+class ScanlineWriter:
+    """Writes an image band by band (top to bottom), so an image larger than host
+    memory can be saved as it is rendered. Same encodings as :func:`write_image`."""
+
+    def __init__(self, path, width, height, channels=3):
+        import OpenImageIO as oiio
+        self.path = Path(path)
+        ext = self.path.suffix.lower()
+        if ext in _LINEAR_FORMATS:
+            self.fmt = "half" if ext == ".exr" else "float"
+        elif ext in (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".tga"):
+            self.fmt = "uint8"
+        else:
+            raise SceneError(f"output: unsupported image extension {ext!r} in {self.path} "
+                             "(use .png, .jpg, .tif, .exr or .hdr)")
+        self.out = oiio.ImageOutput.create(str(self.path))
+        if self.out is None:
+            raise SceneError(f"output: cannot create {self.path}: {oiio.geterror()}")
+        spec = oiio.ImageSpec(width, height, channels, self.fmt)
+        if self.fmt == "uint8":
+            spec.attribute("oiio:ColorSpace", "sRGB")
+        if not self.out.open(str(self.path), spec):
+            raise SceneError(f"output: cannot open {self.path} for writing: {self.out.geterror()}")
+        self.next_row = 0
+
+    def write(self, y0, rgb_rows):
+        """Rows y0 .. y0 + len(rgb_rows) - 1 of linear float RGB; bands must come in order."""
+        if y0 != self.next_row:
+            raise ValueError(f"ScanlineWriter: expected row {self.next_row}, got {y0}")
+        rgb = np.ascontiguousarray(rgb_rows, dtype=np.float32)
+        data = rgb if self.fmt != "uint8" else np.round(linear_to_srgb(rgb) * 255.0).astype(np.uint8)
+        if not self.out.write_scanlines(y0, y0 + len(rgb), 0, data):
+            raise SceneError(f"output: writing rows {y0}.. of {self.path} failed: {self.out.geterror()}")
+        self.next_row = y0 + len(rgb)
+
+    def close(self):
+        self.out.close()

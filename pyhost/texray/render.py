@@ -16,10 +16,10 @@ import numpy as np
 import pyopencl as cl
 
 from . import layout
-from .compile import CompiledScene, compile_scene
+from .compile import CompiledScene, compile_scene, object_table
 from .device import runtime
 from .errors import DeviceError, SceneError
-from .features import compile_options
+from .features import Features, compile_options
 
 STAGES = ("raygen", "intersect", "surface", "shadow", "shade")
 # Bytes per in-flight ray besides the shadow bytes: Ray + Hit + Surface + accumulator.
@@ -76,7 +76,8 @@ class _Uploaded:
 
 
 def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=True, shadows=True,
-           aovs=(), tile_pixels=None, progress=None) -> Image:
+           aovs=(), specialize=True, local_size=None, memory_limit=None, tile_pixels=None, progress=None,
+           sink=None, compiled=None) -> Image:
     """Render ``scene`` to a linear RGB image.
 
     spp: samples per pixel (correlated multi-jittered within the pixel, box
@@ -85,9 +86,25 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     aovs: names from :data:`texray.layout.AOVS`, evaluated by one extra pass of
     pixel-centre rays and returned in ``image.aov[name]`` as float32 (H, W, C)
     arrays (NaN, or -1 for the ids, where the ray hits nothing).
-    device: see :func:`texray.device.select_device`. tile_pixels bounds the
-    rays in flight per launch (default: chosen from the device's memory).
+    device: see :func:`texray.device.select_device`.
+    specialize: compile the kernels for exactly the features the scene uses
+    (default); False uses the one generic program with every feature compiled
+    in (same image; the benchmark's baseline).
+    local_size: work-group size of the per-ray kernels (0: the driver's
+    choice; default: :meth:`texray.device.Runtime.local_size`).
+    memory_limit: bytes of device memory the render may use (default: a
+    quarter of the device's memory); the scene's arrays count against it and
+    the rest bounds the rays in flight per tile. tile_pixels bounds them
+    directly (default: from the memory limit, at most 2^20 so that no launch
+    runs long enough to trip a GPU display watchdog).
     progress: optional callable(fraction_done) called after each pass.
+    sink: optional callable(y0, rgb_rows, aov_rows) given each finished band
+    of rows (float32 (rows, W, 3) and a dict like ``Image.aov``); the image is
+    then not kept in host memory (``Image.rgb`` is None): see
+    :func:`render_to_file` for images larger than memory.
+    compiled: the result of :func:`texray.compile.compile_scene` for this
+    scene, to skip compiling it again (the BVH of a big mesh takes seconds);
+    it is not modified.
     """
     width, height, spp = _positive_int(width, "width"), _positive_int(height, "height"), _positive_int(spp, "spp")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
@@ -97,22 +114,31 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         if a not in layout.AOVS:
             raise SceneError(f"render: aovs: unknown AOV {a!r} (known: {', '.join(layout.AOVS)})")
     t_start = time.perf_counter()
-    cs = compile_scene(scene, shadows=shadows)
+    if compiled is None:
+        cs = compile_scene(scene, shadows=shadows)
+    elif isinstance(compiled, CompiledScene):
+        cs = dataclasses.replace(compiled)
+        cs.features = dataclasses.replace(cs.features, shadows=bool(shadows) and len(cs.lights) > 0)
+    else:
+        raise SceneError(f"render: compiled: expected a CompiledScene, got {type(compiled).__name__}")
     if aovs:
         cs.features = dataclasses.replace(cs.features, aovs=True)
+    if not specialize:
+        cs.features = generic_features(cs.features)
+        if cs.objects is None:                     # the generic program reads every object's mapping
+            cs.objects = object_table(scene.objects, always=True)
     t_compiled = time.perf_counter()
     rt = runtime(device)
     prg = rt.program(compile_options(cs.features))
+    local = rt.local_size(local_size)
     t_built = time.perf_counter()
-    up = _Uploaded(rt.context, cs)
 
-    nl = max(int(up.nlights), 1)
+    nl = max(len(cs.lights), 1)
     per_ray = _RAY_BYTES + nl + (4 * layout.AOV_FLOATS if aovs else 0)
-    if tile_pixels is None:
-        budget = min(rt.device.max_mem_alloc_size, rt.device.global_mem_size // 4)
-        tile_pixels = int(min(1 << 20, max(budget // per_ray, 1)))
-    rows = max(1, min(height, _positive_int(tile_pixels, "tile_pixels") // width))
+    rows = plan_rows(width, height, per_ray, sum(cs.device_bytes().values()), rt.device,
+                     memory_limit=memory_limit, tile_pixels=tile_pixels)
     n_max = rows * width
+    up = _Uploaded(rt.context, cs)
     mf = cl.mem_flags
     try:
         rays = cl.Buffer(rt.context, mf.READ_WRITE, n_max * layout.RAY.itemsize)
@@ -131,52 +157,55 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
 
     k = {name: cl.Kernel(prg, name) for name in STAGES}
     q = rt.queue
-    out = np.empty((height, width, 4), np.float32)
-    aov_out = np.empty((height, width, layout.AOV_FLOATS), np.float32) if aovs else None
+    img_rows = rows if sink is not None else height      # with a sink, only one band is kept
+    out = np.empty((img_rows, width, 4), np.float32)
+    aov_out = np.empty((img_rows, width, layout.AOV_FLOATS), np.float32) if aovs else None
     events = {name: [] for name in STAGES}
     u32 = np.uint32
     passes, total_passes = 0, ((height + rows - 1) // rows) * (spp + bool(aovs))
 
     def trace(gsize, n, y0, sample, jit, aov):
-        events["raygen"].append(k["raygen"](q, gsize, None, rays, cam_buf, u32(width), u32(height), u32(0),
+        events["raygen"].append(k["raygen"](q, gsize, lsize, rays, cam_buf, u32(width), u32(height), u32(0),
                                             u32(y0), u32(width), u32(n), u32(sample), u32(spp),
                                             u32(seed & 0xFFFFFFFF), u32(jit)))
-        events["intersect"].append(k["intersect"](q, gsize, None, rays, hits, u32(n), *up.geom))
-        events["surface"].append(k["surface"](q, gsize, None, rays, hits, surf, u32(n), *up.geom, up.shade,
+        events["intersect"].append(k["intersect"](q, gsize, lsize, rays, hits, u32(n), *up.geom))
+        events["surface"].append(k["surface"](q, gsize, lsize, rays, hits, surf, u32(n), *up.geom, up.shade,
                                               up.quad_shade, up.normals, up.uvs, up.materials, up.textures,
                                               up.texels, up.objects, aov))
 
     for y0 in range(0, height, rows):
         tile_rows = min(rows, height - y0)
         n = tile_rows * width
-        gsize = (n,)
+        gsize, lsize = rt.launch_size(n, local)
+        oy = 0 if sink is not None else y0
         cl.enqueue_fill_buffer(q, accum, np.float32(0), 0, n * 16)
         for sample in range(spp):
             trace(gsize, n, y0, sample, jitter, None)
             if up.nlights:
-                events["shadow"].append(k["shadow"](q, gsize, None, surf, vis, u32(n), *up.geom,
+                events["shadow"].append(k["shadow"](q, gsize, lsize, surf, vis, u32(n), *up.geom,
                                                     up.lights, up.nlights))
-            events["shade"].append(k["shade"](q, gsize, None, rays, surf, vis, u32(n), accum, up.lights, up.nlights,
+            events["shade"].append(k["shade"](q, gsize, lsize, rays, surf, vis, u32(n), accum, up.lights, up.nlights,
                                               cs.ambient, cs.background))
             passes += 1
             if progress is not None:
                 events["shade"][-1].wait()
                 progress(passes / total_passes)
-        cl.enqueue_copy(q, out[y0:y0 + tile_rows].reshape(-1, 4), accum, is_blocking=False)
+        cl.enqueue_copy(q, out[oy:oy + tile_rows].reshape(-1, 4), accum, is_blocking=False)
         if aovs:
             trace(gsize, n, y0, 0, False, aov_buf)
-            cl.enqueue_copy(q, aov_out[y0:y0 + tile_rows].reshape(-1, layout.AOV_FLOATS), aov_buf, is_blocking=False)
+            cl.enqueue_copy(q, aov_out[oy:oy + tile_rows].reshape(-1, layout.AOV_FLOATS), aov_buf,
+                            is_blocking=False)
             passes += 1
             if progress is not None:
                 q.finish()
                 progress(passes / total_passes)
+        if sink is not None:
+            q.finish()
+            sink(y0, out[:tile_rows, :, :3] / np.float32(spp), _split_aovs(aov_out, aovs, tile_rows))
     q.finish()
     t_end = time.perf_counter()
-    rgb = out[:, :, :3] / np.float32(spp)
-    aov = {}
-    for a in aovs:
-        first, count = layout.AOVS[a]
-        aov[a] = np.ascontiguousarray(aov_out[:, :, first:first + count])
+    rgb = None if sink is not None else np.ascontiguousarray(out[:, :, :3] / np.float32(spp))
+    aov = {} if sink is not None else _split_aovs(aov_out, aovs, height)
     stage_s = {name: sum((e.profile.end - e.profile.start) for e in evs) * 1e-9 for name, evs in events.items()}
     stats = {
         "width": width, "height": height, "spp": spp, "device": rt.device.name.strip(),
@@ -185,6 +214,65 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         "bvh_build_s": cs.bvh.build_seconds, "sah_cost": cs.bvh.sah_cost,
         "scene_compile_s": t_compiled - t_start, "program_build_s": t_built - t_compiled,
         "render_s": t_end - t_built, "total_s": t_end - t_start, "stage_s": stage_s,
-        "tile_rows": rows, "device_bytes": cs.device_bytes(), "features": cs.features,
+        "tile_rows": rows, "tiles": (height + rows - 1) // rows, "local_size": local,
+        "device_bytes": cs.device_bytes(), "ray_buffer_bytes": n_max * per_ray,
+        "features": cs.features, "specialized": bool(specialize),
     }
-    return Image(rgb=np.ascontiguousarray(rgb), aov=aov, stats=stats)
+    return Image(rgb=rgb, aov=aov, stats=stats)
+
+
+def _split_aovs(aov_out, names, rows):
+    aov = {}
+    for a in names:
+        first, count = layout.AOVS[a]
+        aov[a] = np.ascontiguousarray(aov_out[:rows, :, first:first + count])
+    return aov
+
+
+def generic_features(needed: Features) -> Features:
+    """The generic program's features for a scene that needs ``needed``: every
+    capability compiled in; the render settings (shadows, AOVs) kept."""
+    g = Features.generic(stack_size=max(128, needed.stack_size))
+    return dataclasses.replace(g, shadows=needed.shadows, aovs=needed.aovs)
+
+
+# The most rays in flight per launch: bounds a launch's run time (GPU display watchdogs
+# kill kernels after ~2 s; 2^20 incoherent rays take a few ms on a GPU, ~0.5 s on PoCL).
+MAX_TILE_PIXELS = 1 << 20
+
+
+def plan_rows(width, height, per_ray_bytes, scene_bytes, dev, memory_limit=None, tile_pixels=None) -> int:
+    """Rows per tile: whole rows, as many as fit both ``tile_pixels`` (default
+    MAX_TILE_PIXELS) and the device memory left after the scene's arrays, within
+    ``memory_limit`` (default a quarter of the device's memory) and the largest
+    single allocation. Raises DeviceError when not even one row fits."""
+    if memory_limit is None:
+        memory_limit = dev.global_mem_size // 4
+    memory_limit = _positive_int(memory_limit, "memory_limit")
+    free = memory_limit - scene_bytes
+    if free < per_ray_bytes * width:
+        raise DeviceError(f"render: the scene's arrays take {scene_bytes / 2**20:.1f} MiB and one row of "
+                          f"{width} pixels {per_ray_bytes * width / 2**20:.2f} MiB, more than the memory "
+                          f"limit {memory_limit / 2**20:.1f} MiB of {dev.name.strip()}")
+    max_buffer = max(layout.SURFACE.itemsize, 4 * layout.AOV_FLOATS)    # the largest per-ray buffer
+    by_memory = min(free // per_ray_bytes, dev.max_mem_alloc_size // max_buffer)
+    limit = MAX_TILE_PIXELS if tile_pixels is None else _positive_int(tile_pixels, "tile_pixels")
+    pixels = min(by_memory, limit)
+    return int(max(1, min(height, pixels // width)))
+
+
+def render_to_file(scene, path, width, height, spp=1, **kwargs) -> dict:
+    """Render straight into an image file, band by band: neither the device nor
+    the host holds the whole image, so a 16k x 16k render needs only the scene
+    and one band of rows in memory (see ``memory_limit`` of :func:`render`).
+    Returns the render's stats. PNG/JPEG/TIFF are written as 8-bit sRGB, EXR as
+    half and HDR as float linear RGB."""
+    from .imageio import ScanlineWriter
+    if "aovs" in kwargs and kwargs["aovs"]:
+        raise SceneError("render_to_file: AOVs are not streamed; use render() and Image.save")
+    writer = ScanlineWriter(path, _positive_int(width, "width"), _positive_int(height, "height"))
+    try:
+        image = render(scene, width, height, spp, sink=lambda y0, rgb, _aov: writer.write(y0, rgb), **kwargs)
+    finally:
+        writer.close()
+    return image.stats

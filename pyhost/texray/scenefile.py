@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 try:
     import tomllib
 except ModuleNotFoundError:        # Python < 3.11
@@ -34,6 +36,7 @@ _SCHEMA = {
     "objects": {"type": str, "material": str, "translate": _VEC, "rotate": _VEC, "scale": (int, float, list),
                 "mapping": dict,
                 "mesh": str,                                                   # type = "mesh"
+                "generator": str, "params": dict,                              # type = "procedural"
                 "center": _VEC, "radius": _NUM, "axis_z": _VEC, "axis_x": _VEC,   # "sphere", "cylinder"
                 "z_range": _VEC, "theta_range": _VEC, "origin": _VEC,          # "cylinder"
                 "p0": _VEC, "p1": _VEC, "p2": _VEC, "p3": _VEC, "uvs": _VEC},  # "quad"
@@ -42,6 +45,7 @@ _REQUIRED = {"lights": ("position",), "textures": ("file",), "mapping": ("kind",
 # Keys each object type takes besides type, material and the transform; the first ones are required.
 _OBJECT_KEYS = {
     "mesh": (("mesh",), ()),
+    "procedural": (("generator",), ("params",)),
     "sphere": ((), ("center", "radius", "axis_z", "axis_x")),
     "cylinder": ((), ("radius", "z_range", "theta_range", "origin", "axis_z", "axis_x")),
     "quad": (("p0", "p1", "p2", "p3"), ("uvs",)),
@@ -162,10 +166,56 @@ def _object(ob, where, materials, base):
     try:
         if kind == "mesh":
             return Mesh.load(base / ob["mesh"], material=material, transform=tf, mapping=args.get("mapping"))
+        if kind == "procedural":
+            return _procedural_mesh(ob["generator"], ob.get("params", {}), where, material, tf,
+                                    args.get("mapping"))
         cls = {"sphere": Sphere, "cylinder": Cylinder, "quad": Quad}[kind]
         return cls(material=material, transform=tf, name=where, **args)
     except SceneError as e:
         raise SceneError(f"{where}.mesh: {e}" if kind == "mesh" else str(e)) from None
+
+
+# Procedural meshes a scene file may name: generator -> (function, {param: type}).
+def _generators():
+    from . import procedural as p
+    return {
+        "bench_mesh": (p.bench_mesh, {"target_triangles": int, "amplitude": _NUM, "seed": int}),
+        "uv_sphere": (p.uv_sphere, {"n_lon": int, "n_lat": int, "radius": _NUM}),
+        "torus": (p.torus, {"n_major": int, "n_minor": int, "R": _NUM, "r": _NUM}),
+        "vase": (p.vase, {"n_around": int, "n_profile": int}),
+        "grid": (p.grid, {"nu": int, "nv": int, "size": _VEC, "uv_scale": _NUM}),
+    }
+
+
+# Largest procedural mesh a scene file may ask for (64M triangles: ~3 GiB of host arrays).
+_MAX_GENERATED_TRIANGLES = 1 << 26
+
+
+def _procedural_mesh(generator, params, where, material, tf, mapping):
+    gens = _generators()
+    if generator not in gens:
+        raise SceneError(f"{where}.generator: expected one of {', '.join(gens)}, got {generator!r}")
+    fn, schema = gens[generator]
+    for key, value in params.items():
+        if key not in schema:
+            raise SceneError(f"{where}.params.{key}: not a parameter of {generator!r} "
+                             f"(allowed: {', '.join(schema)})")
+        types = schema[key] if isinstance(schema[key], tuple) else (schema[key],)
+        if isinstance(value, bool) or not isinstance(value, types):
+            raise SceneError(f"{where}.params.{key}: expected a {'number' if types == _NUM else types[0].__name__}"
+                             f", got {value!r}")
+        if types == (int,) and key != "seed" and value < 1:
+            raise SceneError(f"{where}.params.{key}: expected a positive integer, got {value!r}")
+    counts = [v for k, v in params.items() if schema[k] is int and k != "seed"]
+    if int(np.prod(counts, dtype=np.float64)) > _MAX_GENERATED_TRIANGLES:
+        raise SceneError(f"{where}.params: {generator} with {params} would exceed "
+                         f"{_MAX_GENERATED_TRIANGLES} triangles")
+    try:
+        m = fn(**params)
+    except (ValueError, TypeError) as e:
+        raise SceneError(f"{where}.params: {generator}({params}): {e}") from None
+    return Mesh(m.positions, m.faces, m.uvs, m.normals, material=material, transform=tf,
+                name=f"{where} ({generator})", mapping=mapping)
 
 
 def _wrap_errors(make, where):

@@ -1,0 +1,80 @@
+"""Kernel build times, cold and warm, measured in a fresh process.
+
+``python -m texray.buildtime SCENE [--device D] [--generic]`` loads a scene,
+then times building its program (OpenCL ``clBuildProgram``) plus the code
+generation that drivers defer to a kernel's first launch (PoCL compiles each
+kernel for its work-group size when it is first enqueued), and prints JSON.
+:func:`measure` runs it twice in subprocesses that share a fresh, empty cache
+directory: the first run is cold (nothing cached: PoCL's kernel cache, the
+NVIDIA driver's cache and pyopencl's binary cache all point into it), the
+second is warm (what every later run of the same scene pays).
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+
+def _time_build(scene_path, device, specialize):
+    from .compile import compile_scene
+    from .device import runtime
+    from .features import compile_options
+    from .render import generic_features, render
+    from .scene import Scene
+    scene = Scene.load(scene_path)
+    cs = compile_scene(scene)
+    features = cs.features if specialize else generic_features(cs.features)
+    rt = runtime(device)
+    t0 = time.perf_counter()
+    rt.program(compile_options(features))
+    t_build = time.perf_counter() - t0
+    # First launches: deferred per-kernel code generation. A second identical render
+    # costs the same minus the code generation, so the difference is its cost.
+    t0 = time.perf_counter()
+    render(scene, 16, 16, 1, device=device, specialize=specialize)
+    t_first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    render(scene, 16, 16, 1, device=device, specialize=specialize)
+    t_second = time.perf_counter() - t0
+    return {"program_s": t_build, "first_launch_s": max(t_first - t_second, 0.0),
+            "build_s": t_build + max(t_first - t_second, 0.0), "device": rt.device.name.strip()}
+
+
+def measure(scene_path, device=None, specialize=True, timeout=600) -> dict:
+    """{"cold_s", "warm_s", ...}: build times of the scene's program in two fresh processes."""
+    with tempfile.TemporaryDirectory(prefix="texray-buildcache-") as cache:
+        env = dict(os.environ, XDG_CACHE_HOME=cache, POCL_CACHE_DIR=os.path.join(cache, "pocl"),
+                   CUDA_CACHE_PATH=os.path.join(cache, "nv"), PYOPENCL_NO_CACHE="0")
+        cmd = [sys.executable, "-m", "texray.buildtime", str(scene_path)]
+        if device is not None:
+            cmd += ["--device", str(device)]
+        if not specialize:
+            cmd.append("--generic")
+        runs = []
+        for _ in range(2):
+            out = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=timeout)
+            if out.returncode != 0:
+                raise RuntimeError(f"texray.buildtime {scene_path} failed:\n{out.stderr[-2000:]}")
+            runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
+    return {"cold_s": runs[0]["build_s"], "warm_s": runs[1]["build_s"],
+            "cold_program_s": runs[0]["program_s"], "cold_first_launch_s": runs[0]["first_launch_s"]}
+
+
+def main(argv=None):
+    import argparse
+    ap = argparse.ArgumentParser(prog="python -m texray.buildtime", description=__doc__.splitlines()[0])
+    ap.add_argument("scene")
+    ap.add_argument("--device")
+    ap.add_argument("--generic", action="store_true", help="time the generic program instead")
+    a = ap.parse_args(argv)
+    device = int(a.device) if a.device is not None and a.device.isdigit() else a.device
+    print(json.dumps(_time_build(a.scene, device, not a.generic)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
