@@ -1,0 +1,234 @@
+"""texray.peers: the scene -> Mitsuba conversion (pure Python, no peer needed), and, when the
+peers are installed, Embree's hits and Mitsuba's images against texray's on the same work."""
+import math
+import sys
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import texray as tx
+from texray import peers, procedural
+
+
+def _texture(seed=1, shape=(4, 6), cell=8):
+    rng = np.random.default_rng(seed)
+    return tx.Texture.from_array(np.kron(rng.random((*shape, 3)), np.ones((cell, cell, 1))), colorspace="linear")
+
+
+def _bump_class():
+    """texray's Bump (tx.Bump, or texray.bump.Bump while it is not exported yet), or None."""
+    if hasattr(tx, "Bump"):
+        return tx.Bump
+    try:
+        from texray.bump import Bump
+    except ImportError:
+        return None
+    return Bump
+
+
+def _quad_scene(material, lights=None):
+    sc = tx.Scene(camera=tx.Camera(eye=(0.3, 0.5, 3.0), look_at=(0, 0, 0), fov_y=45),
+                  lights=lights or [tx.PointLight((1.0, 2.0, 2.0), (8.0, 8.0, 8.0))],
+                  ambient=(0.05, 0.05, 0.05), background=(0.1, 0.2, 0.3))
+    sc.add(tx.Quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0), material=material, name="quad"))
+    return sc
+
+
+# ----------------------------------------------------------------------------- pure conversion
+
+def test_camera_to_world_maps_mitsuba_camera_rays_onto_texray_rays():
+    cam = tx.Camera(eye=(2.6, 2.4, 4.6), look_at=(0.1, 0.5, 0.0), fov_y=38)
+    aspect = 640 / 480
+    m = peers.camera_to_world(cam, aspect)
+    eye, fwd, right, up = cam.basis(aspect)
+    np.testing.assert_allclose(m[:3, 3], eye)
+    np.testing.assert_allclose(m[:3, :3].T @ m[:3, :3], np.eye(3), atol=1e-12)    # rigid
+    h = math.tan(math.radians(38) / 2)
+    for x, y in [(0, 0), (1, 1), (-1, 1), (0.3, -0.7)]:
+        # Mitsuba's camera space: +x left, +y up, +z forward; NDC x to the right
+        d_cam = np.array([-x * h * aspect, y * h, 1.0])
+        np.testing.assert_allclose(m[:3, :3] @ d_cam, fwd + x * right + y * up, atol=1e-12)
+    spec = peers.mitsuba_spec(tx.Scene(camera=cam), 640, 480)
+    assert spec["sensor"]["fov"] == 38 and spec["sensor"]["fov_axis"] == "y"
+    assert (spec["sensor"]["width"], spec["sensor"]["height"]) == (640, 480)
+
+
+def test_bitmap_rows_flipped_and_tint_applied():
+    tex = _texture()
+    h = tex.shape[0]
+    t = peers.texture_spec(tex, scale=(0.5, 1.0, 2.0))
+    # texray: texel row j's centre is at v = 1 - (j + 0.5) / H; Mitsuba: bitmap row k at v = (k + 0.5) / H
+    for j in (0, 5, h - 1):
+        k = int(np.floor((1 - (j + 0.5) / h) * h))
+        np.testing.assert_allclose(t["bitmap"][k], tex.rgba[j, :, :3] * [0.5, 1.0, 2.0], rtol=1e-6)
+    assert t["raw"] and t["filter_type"] == "bilinear" and t["wrap_mode"] == "repeat"
+    np.testing.assert_array_equal(t["to_uv"], np.eye(3))
+
+
+def test_uv_transform_and_sphere_v_flip():
+    uvt = tx.UVTransform(scale=(2, 3), offset=(0.1, 0.2), rotation=20)
+    tex = _texture().with_options(wrap="mirror", uv_transform=uvt)
+    mesh_t = peers.texture_spec(tex)
+    uv = np.array([0.3, 0.8])
+    np.testing.assert_allclose((mesh_t["to_uv"] @ [*uv, 1])[:2], uvt.apply(uv))
+    assert mesh_t["wrap_mode"] == "mirror"
+    # a sphere point at polar angle theta (from axis_z), azimuth phi (from axis_x toward z x x)
+    sph = tx.Sphere((1, 2, 3), 0.5, material=tx.Material(diffuse=tex), axis_z=(0, 1, 0), axis_x=(0, 0, 1))
+    s = peers.shape_spec(sph)
+    np.testing.assert_allclose(s["to_world"][:3, 0], [0, 0, 0.5])     # x = axis_x * r
+    np.testing.assert_allclose(s["to_world"][:3, 1], [0.5, 0, 0])     # y = z x x
+    np.testing.assert_allclose(s["to_world"][:3, 2], [0, 0.5, 0])     # z = axis_z
+    np.testing.assert_allclose(s["to_world"][:3, 3], [1, 2, 3])
+    theta, phi = 0.6, 4.0
+    mitsuba_uv = np.array([phi / (2 * np.pi), theta / np.pi, 1.0])
+    texray_uv = np.array([phi / (2 * np.pi), 1 - theta / np.pi])
+    np.testing.assert_allclose((s["material"]["reflectance"]["to_uv"] @ mitsuba_uv)[:2], uvt.apply(texray_uv))
+
+
+def test_lights_carry_pi_and_integrator_is_direct_hard_shadows():
+    sc = _quad_scene(tx.Material(diffuse=(0.5, 0.5, 0.5)),
+                     lights=[tx.PointLight((1, 2, 3), (8, 4, 2)), tx.PointLight((0, 5, 0), (1, 1, 1))])
+    spec = peers.mitsuba_spec(sc, 64, 48, spp=16, seed=3)
+    np.testing.assert_allclose(spec["lights"][0]["intensity"], np.array([8, 4, 2]) * np.pi)
+    np.testing.assert_allclose(spec["lights"][1]["position"], [0, 5, 0])
+    assert spec["integrator"] == {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0}
+    assert spec["sampler"] == {"type": "multijitter", "sample_count": 16, "seed": 3}
+    np.testing.assert_allclose(spec["background"], [0.1, 0.2, 0.3])
+    assert any("pi" in n for n in spec["notes"]) and any("ambient" in n for n in spec["notes"])
+    assert spec["shapes"][0]["kind"] == "mesh" and spec["shapes"][0].get("note") is None   # a parallelogram
+    np.testing.assert_array_equal(spec["shapes"][0]["faces"], [[0, 1, 2], [0, 2, 3]])
+
+
+def test_comparable_scene_drops_ambient_and_specular_only_in_the_copy():
+    m = tx.Material(diffuse=(0.5, 0.6, 0.7), specular=0.3, shininess=20)
+    sc = _quad_scene(m)
+    cmp, notes = peers.comparable_scene(sc)
+    assert tuple(cmp.ambient) == (0.0, 0.0, 0.0) and len(notes) == 2
+    assert cmp.objects[0].material.specular == 0.0 and cmp.objects[0].material.diffuse == (0.5, 0.6, 0.7)
+    assert sc.objects[0].material.specular == 0.3 and sc.ambient == (0.05, 0.05, 0.05)
+
+
+def test_cylinder_full_turn_frame_and_partial_unsupported():
+    cyl = tx.Cylinder(0.8, (-0.5, 0.7), (90, 450), axis_z=(0, 1, 0), axis_x=(1, 0, 0))
+    s = peers.shape_spec(cyl)
+    m = s["to_world"]
+    np.testing.assert_allclose(m[:3, 3], [0, -0.5, 0], atol=1e-12)          # z_min along the axis
+    np.testing.assert_allclose(m[:3, 2], [0, 1.2, 0], atol=1e-12)           # length z_max - z_min
+    # Mitsuba's phi = 0 lies at texray's theta_min = 90 degrees: axis_x rotated toward y = z x x = (0, 0, -1)
+    np.testing.assert_allclose(m[:3, 0], [0, 0, -0.8], atol=1e-12)
+    with pytest.raises(peers.Unsupported, match="theta_range"):
+        peers.shape_spec(tx.Cylinder(0.8, (0, 1), (-60, 240), name="partial"))
+    with pytest.raises(peers.Unsupported, match="mapping"):
+        peers.shape_spec(tx.Sphere(mapping=tx.Projection("planar"), name="proj"))
+    trap = tx.Quad((-1, -1, 0), (1, -1, 0), (0.5, 1, 0), (-1, 1, 0), name="trap")
+    assert "trap" in peers.shape_spec(trap)["note"]
+
+
+def test_bump_conversion():
+    height = _texture(seed=2)
+    # tx.Bump (duck-typed: texture, height, delta) -> Mitsuba bumpmap
+    mat = SimpleNamespace(bump=SimpleNamespace(texture=height, height=0.02, delta=1e-3))
+    b = peers.bump_spec(mat)
+    assert b["scale"] == 0.02 and b["use_shadowing_function"] is False and b["flip_invalid_normals"] is False
+    assert b["texture"]["bitmap"].shape == (*height.shape, 1)
+    np.testing.assert_array_equal(b["texture"]["bitmap"][0, :, 0], height.rgba[-1, :, 0])   # rows flipped
+    assert peers.bump_spec(tx.Material()) is None
+    if _bump_class() is not None:
+        srgb = tx.Texture.from_array(height.rgba[..., :1] * 0 + 0.5, colorspace="srgb")
+        b = peers.bump_spec(tx.Material(bump=_bump_class()(srgb, height=0.03)))
+        assert b["scale"] == 0.03
+        np.testing.assert_allclose(b["texture"]["bitmap"], 0.5, rtol=1e-5)     # data role: stored values
+
+
+def test_compare_images_values():
+    a = np.full((4, 5, 3), 0.5, np.float32)
+    b = a.copy()
+    b[0, 0] = [0.6, 0.5, 0.5]          # one pixel off by 0.1 in one channel
+    c = peers.compare_images(a, b)
+    n = a.size
+    assert c["rmse"] == pytest.approx(math.sqrt(0.01 / n), rel=1e-5)
+    assert c["mean_abs"] == pytest.approx(0.1 / n, rel=1e-5)
+    assert c["rel_mean_diff"] == pytest.approx(0.1 / n / 0.5, rel=1e-5)
+    assert c["frac_pixels_over"] == pytest.approx(1 / 20)
+    with pytest.raises(ValueError, match="shapes differ"):
+        peers.compare_images(a, b[:2])
+
+
+def test_missing_peers_are_named(monkeypatch):
+    monkeypatch.setitem(sys.modules, "embreex", None)
+    monkeypatch.setitem(sys.modules, "mitsuba", None)
+    with pytest.raises(peers.PeerMissing, match="embreex"):
+        peers.embree_rays(np.zeros((3, 3)), np.array([[0, 1, 2]]), np.zeros((1, 3)), np.ones((1, 3)))
+    with pytest.raises(peers.PeerMissing, match="mitsuba"):
+        peers.mitsuba_render(_quad_scene(tx.Material()), 8, 8, 1)
+    av = peers.available()
+    assert av["embree"]["ok"] is False and "embreex" in av["embree"]["error"]
+    assert av["mitsuba"]["ok"] is False
+
+
+# ----------------------------------------------------------------------------- with the peers
+
+def test_embree_hits_the_same_triangles_as_texray():
+    pytest.importorskip("embreex")
+    from texray.trace import Tracer
+    m = procedural.bench_mesh(20_000)
+    scene = tx.Scene(camera=tx.Camera(eye=(0.0, 0.4, 3.2), look_at=(0, 0, 0), fov_y=40),
+                     lights=[tx.PointLight((3.0, 4.0, 5.0), (40, 40, 40))])
+    scene.add(tx.Mesh(m.positions, m.faces))
+    org, dirs = peers.primary_rays(scene.camera, 96)
+    tracer = Tracer(scene)
+    hits = tracer.closest(org, dirs)
+    face = peers.texray_face_ids(tracer.compiled, hits)
+    so, sd = peers.shadow_rays(org, dirs, hits.t, face >= 0, scene.lights[0].position)
+    occ, _ = tracer.occluded(so, sd, 0.0, 1.0)
+    r = peers.embree_rays(m.positions, m.faces, org, dirs, so, sd, repeat=1, threads=2,
+                          texray_hits=(hits.t, face), texray_occluded=occ)
+    assert 0.3 < r["hit_fraction"] < 0.9
+    assert r["agreement"]["hit_face_agree"] >= 0.999
+    assert r["agreement"]["t_rel_diff_max"] < 1e-4
+    assert r["agreement"]["shadow_agree"] >= 0.999
+    assert r["primary_mrays_s"]["median"] > 0 and r["shadow_mrays_s"]["median"] > 0
+
+
+@pytest.mark.parametrize("shape", ["quad", "sphere"])
+def test_mitsuba_matches_texray_at_pixel_centres(shape):
+    """Pins the conventions: pixel-centre samples in both, so only float precision (texray keeps
+    texels as halves) separates the images: mean |difference| below 0.1 % of the mean, every
+    pixel within 0.005."""
+    pytest.importorskip("mitsuba")
+    mat = tx.Material(diffuse=_texture(), tint=(0.9, 1.0, 0.8), specular=0.4)
+    sc = _quad_scene(mat)
+    if shape == "sphere":
+        sc.objects = []
+        sc.add(tx.Sphere((0, 0, 0), 1.0, material=mat, axis_z=(0, 1, 0), axis_x=(0, 0, 1), name="sphere"))
+    cmp, _ = peers.comparable_scene(sc)
+    ours = tx.render(cmp, 64, 48, 1, jitter=False).rgb
+    theirs, stats = peers.mitsuba_render(sc, 64, 48, 1, sampler="centre")
+    d = peers.compare_images(ours, theirs)
+    assert d["rel_mean_abs"] < 1e-3, d
+    assert np.abs(ours - theirs).max() < 5e-3
+    assert stats["render_s"]["median"] > 0 and stats["notes"]
+
+
+def test_mitsuba_bumpmap_matches_texray_analytic_bump():
+    """Mitsuba's bumpmap (exact bilinear gradient, no shadowing term, no normal flipping) against
+    texray's Bump(delta="analytic") at pixel centres: mean |difference| below 0.2 % of the mean.
+    Without texray's Bump class yet, only checks that a duck-typed bump loads and changes the image."""
+    pytest.importorskip("mitsuba")
+    mat = tx.Material(diffuse=(0.7, 0.6, 0.5))
+    sc = tx.Scene(camera=tx.Camera(eye=(0.3, 1.0, 2.5), look_at=(0, 0, 0), fov_y=45),
+                  lights=[tx.PointLight((1, 2, 1), (8, 8, 8))])
+    sc.add(tx.Quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0), material=mat, name="wall"))
+    flat, _ = peers.mitsuba_render(sc, 64, 48, 1, sampler="centre")
+    height = tx.Texture.from_array(procedural.bricks_height(128))
+    bump = _bump_class()
+    mat.bump = (bump(height, height=0.02, delta="analytic") if bump is not None
+                else SimpleNamespace(texture=height, height=0.02, delta="analytic"))
+    bumped, stats = peers.mitsuba_render(sc, 64, 48, 1, sampler="centre")
+    assert np.all(np.isfinite(bumped)) and np.abs(bumped - flat).max() > 0.05
+    assert any("bumpmap" in n for n in stats["notes"])
+    if bump is not None:
+        ours = tx.render(sc, 64, 48, 1, jitter=False).rgb
+        assert np.abs(ours - flat).max() > 0.05                        # texray bumps too
+        assert peers.compare_images(ours, bumped)["rel_mean_abs"] < 2e-3
