@@ -41,15 +41,33 @@ def test_devices_command_lists_the_cpu():
     assert out.returncode == 0 and "cpu" in out.stdout
 
 
-def test_bench_command_writes_json(tmp_path, capsys):
+def test_bench_command_writes_json_report_and_compare(tmp_path, capsys):
+    """A tiny full run: ray throughput, one suite scene (specialized and generic, no build
+    timing), a sweep, the markdown report, and --compare of the run with itself."""
     import json
-    out = tmp_path / "bench.json"
+    out, md = tmp_path / "bench.json", tmp_path / "bench.md"
     assert main(["bench", "--device", "cpu", "--triangles", "5000", "--rays", "32", "--repeat", "1",
-                 "--size", "32x24", "--spp", "1", "--json", str(out)]) == 0
+                 "--scenes", "globe", "--size", "32x24", "--spp", "1", "--no-build",
+                 "--sweep", "globe", "--sweep-size", "24x16", "--ref-spp", "8", "--sweep-spp", "1,2",
+                 "--json", str(out), "--report", str(md)]) == 0
     r = json.loads(out.read_text())
     assert abs(r["bvh"]["triangles"] - 5000) <= 50 and r["bvh"]["sah_cost"] > 1
+    assert len(r["variants"]) >= 1
     (dev,) = r["devices"].values()
     assert dev["rays"]["primary_mrays_s"]["median"] > 0
-    frame = dev["frames"][0]
-    assert frame["spp"] == 1 and set(frame["stage_s"]) == {"raygen", "intersect", "surface", "shadow", "shade"}
-    assert "Mrays/s" in capsys.readouterr().out
+    g = dev["scenes"]["globe"]
+    assert g["spp"] == 1 and set(g["specialized"]["stage_s"]) == {"raygen", "intersect", "surface", "shadow",
+                                                                    "shade"}
+    assert g["specialized"]["features"]["spheres"] and not g["specialized"]["features"]["cylinders"]
+    assert g["generic"]["features"]["cylinders"] and g["generic_over_specialized"] > 0
+    sweep = dev["sweeps"]["globe"]["series"]["spp"]
+    assert [p["spp"] for p in sweep] == [1, 2]
+    # More samples, less error against the reference (8 spp): the 2-spp error is the
+    # smaller one unless the sweep is broken (noise falls by sqrt(2) in expectation).
+    assert sweep[1]["rmse"] < sweep[0]["rmse"]
+    text = capsys.readouterr().out
+    assert "Mrays/s" in text and "generic/spec." in text
+    assert "| globe |" in md.read_text()
+    assert main(["bench", "--compare", str(out), str(out)]) == 0
+    cmp = capsys.readouterr().out
+    assert "globe frame ms" in cmp and "1.000" in cmp

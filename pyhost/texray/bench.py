@@ -1,23 +1,31 @@
 """``texray bench``: the kernel benchmark.
 
-Measures, on every OpenCL device (or the ones chosen):
+Measures, on every OpenCL device (or the ones chosen with ``--device``):
 
-* BVH build time and SAH cost for a 1M-triangle mesh (host side, once);
+* BVH build time and SAH cost of a 1M-triangle mesh (host side, once);
 * closest-hit throughput of 1024^2 pixel-centre primary rays on that mesh and
-  any-hit throughput of shadow rays from the hits toward a point light
-  (the work of peers.md's Embree figures);
-* frame time of the showcase scene at 1 and 16 spp, with each kernel stage
-  timed by OpenCL profiling events.
+  any-hit throughput of shadow rays from the hits toward a point light (the
+  work of peers.md's Embree figures);
+* the suite ``scenes/bench/`` (1M-triangle mesh, textured globe, textured quad
+  at grazing angles, every primitive and mapping mixed): frame time and each
+  kernel stage (OpenCL profiling events) for the program specialized to the
+  scene and for the generic program with every feature compiled in; cold and
+  warm build times of both (fresh processes); device memory;
+* ``--sweep``: the speed/accuracy knobs (spp, texture filtering) against a
+  reference image, as a table and an error-against-time plot (``--plot``);
+* ``--local-sizes``: frame time per work-group size;
+* ``--peers``: Embree and Mitsuba 3 on the same work (``texray[peers]``).
 
 Every figure is the median over ``--repeat`` runs after one warm-up run, with
-the spread (min-max) beside it. Prints a table and writes JSON.
+the spread (min-max) beside it. Prints tables, writes JSON (``--json``) and a
+markdown report (``--report``); ``--compare A.json B.json`` prints the ratios
+between two runs.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import platform
-import statistics
 import subprocess
 import sys
 import time
@@ -26,10 +34,10 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-
-
-def _median_spread(values):
-    return {"median": statistics.median(values), "min": min(values), "max": max(values), "n": len(values)}
+from .bench_report import compare, markdown, print_device
+from .bench_suite import (SUITE, bench_scene, build_times, local_size_sweep, median_spread, program_variants,
+                          scenes_dir, suite_paths)
+from .bench_sweep import SPP_VALUES, plot, sweep_scene
 
 
 def _git_commit():
@@ -61,7 +69,7 @@ def bench_bvh(scene, repeat):
         t0 = time.perf_counter()
         tree = bvh.build(lo, hi)
         times.append(time.perf_counter() - t0)
-    return cs, {"triangles": int(len(lo)), "build_s": _median_spread(times), "sah_cost": tree.sah_cost,
+    return cs, {"triangles": int(len(lo)), "build_s": median_spread(times), "sah_cost": tree.sah_cost,
                 "nodes": int(len(tree.nodes)), "depth": tree.depth}
 
 
@@ -89,94 +97,150 @@ def bench_rays(cs, scene, device, size, repeat):
         if i:
             shadow.append(len(so) / secs * 1e-6)
     return {"rays": int(len(dirs)), "hit_fraction": float(hit.mean()),
-            "primary_mrays_s": _median_spread(primary),
+            "primary_mrays_s": median_spread(primary),
             "shadow_rays": int(len(so)), "shadow_occluded_fraction": float(occ.mean()),
-            "shadow_mrays_s": _median_spread(shadow)}
+            "shadow_mrays_s": median_spread(shadow)}
 
 
-def bench_frame(scene, device, width, height, spp, repeat):
-    from .render import render
-    render(scene, width, height, spp, device=device)               # warm-up: builds the program
-    runs = [render(scene, width, height, spp, device=device).stats for _ in range(repeat)]
-    stages = {k: _median_spread([r["stage_s"][k] for r in runs]) for k in runs[0]["stage_s"]}
-    frame = _median_spread([r["render_s"] for r in runs])
-    samples = width * height * spp
-    return {"width": width, "height": height, "spp": spp, "frame_s": frame,
-            "msamples_s": samples / frame["median"] * 1e-6,
-            "primary_mrays_s": samples / stages["intersect"]["median"] * 1e-6 if stages["intersect"]["median"] else None,
-            "stage_s": stages, "program_build_s": runs[0]["program_build_s"],
-            "device_bytes": runs[0]["device_bytes"]}
+def _csv_ints(text, what):
+    try:
+        return [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise SystemExit(f"texray bench: {what}: expected comma-separated integers, got {text!r}") from None
 
 
-def _print_device(name, r, out):
-    rays = r["rays"]
-    out.write(f"\n== {name}\n")
-    out.write(f"  primary rays  {rays['rays']:>9} rays, {100 * rays['hit_fraction']:.0f}% hit: "
-              f"{rays['primary_mrays_s']['median']:7.2f} Mrays/s "
-              f"({rays['primary_mrays_s']['min']:.2f}-{rays['primary_mrays_s']['max']:.2f})\n")
-    out.write(f"  shadow rays   {rays['shadow_rays']:>9} rays, {100 * rays['shadow_occluded_fraction']:.0f}% occluded: "
-              f"{rays['shadow_mrays_s']['median']:7.2f} Mrays/s "
-              f"({rays['shadow_mrays_s']['min']:.2f}-{rays['shadow_mrays_s']['max']:.2f})\n")
-    for f in r["frames"]:
-        st = "  ".join(f"{k} {1e3 * v['median']:.1f}" for k, v in f["stage_s"].items())
-        out.write(f"  showcase {f['width']}x{f['height']} {f['spp']:>2} spp: {1e3 * f['frame_s']['median']:8.1f} ms "
-                  f"({1e3 * f['frame_s']['min']:.1f}-{1e3 * f['frame_s']['max']:.1f}), "
-                  f"{f['msamples_s']:.2f} Msamples/s; stages ms: {st}\n")
+def _size(text):
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+        assert w > 0 and h > 0
+        return w, h
+    except (ValueError, AssertionError):
+        raise SystemExit(f"texray bench: expected a size WxH, got {text!r}") from None
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="texray bench", description=__doc__.splitlines()[0])
+    ap.add_argument("--compare", nargs=2, metavar=("A.json", "B.json"),
+                    help="print ratios B/A between two earlier runs, and exit")
     ap.add_argument("--device", action="append",
                     help="device to run on (repeatable; default: every CPU and GPU device found)")
     ap.add_argument("--repeat", type=int, default=5, help="timed runs per figure, after one warm-up (default 5)")
-    ap.add_argument("--triangles", type=int, default=1_000_000, help="bench mesh size (default 1M)")
-    ap.add_argument("--rays", type=int, default=1024, help="primary rays per side (default 1024)")
-    ap.add_argument("--scene", default=None, help="showcase scene file (default: scenes/showcase.toml)")
-    ap.add_argument("--size", default="640x480", help="showcase frame size WxH (default 640x480)")
-    ap.add_argument("--spp", type=int, action="append", help="showcase spp (repeatable; default 1 and 16)")
-    ap.add_argument("--json", default="bench.json", help="where to write the JSON results (default bench.json)")
+    ap.add_argument("--scenes", default=",".join(SUITE),
+                    help=f"suite scenes (names in scenes/bench/ or .toml paths), comma-separated "
+                         f"(default {','.join(SUITE)}; '' for none)")
+    ap.add_argument("--size", default=None, help="frame size WxH for every suite scene (default: each scene's)")
+    ap.add_argument("--spp", type=int, default=None, help="spp for every suite scene (default: each scene's)")
+    ap.add_argument("--no-generic", action="store_true", help="skip the generic-program comparison")
+    ap.add_argument("--no-build", action="store_true", help="skip cold/warm build timing")
+    ap.add_argument("--triangles", type=int, default=1_000_000, help="ray-throughput mesh size (default 1M)")
+    ap.add_argument("--rays", type=int, default=1024, help="primary rays per side (default 1024; 0: skip)")
+    ap.add_argument("--sweep", default="", help="scenes to sweep speed/accuracy knobs on, comma-separated "
+                                                "(e.g. globe,grazing_quad)")
+    ap.add_argument("--sweep-size", default="320x240", help="frame size of the sweeps (default 320x240)")
+    ap.add_argument("--ref-spp", type=int, default=256, help="spp of the sweeps' reference images (default 256)")
+    ap.add_argument("--sweep-spp", default=",".join(map(str, SPP_VALUES)), help="spp values swept")
+    ap.add_argument("--local-sizes", default="", help="work-group sizes to time on the mixed scene, "
+                                                      "e.g. 0,16,32,64,128 (0 = driver's choice)")
+    ap.add_argument("--peers", action="store_true", help="also run the peers (pip install texray[peers])")
+    ap.add_argument("--json", default="bench.json", help="JSON results (default bench.json)")
+    ap.add_argument("--report", default=None, help="also write a markdown report here")
+    ap.add_argument("--plot", default=None, help="error-against-time plot of the sweeps (PNG; needs matplotlib)")
     args = ap.parse_args(argv)
+    out = sys.stdout
+    if args.compare:
+        return compare(*args.compare, out)
     if args.repeat < 1:
         ap.error("--repeat must be >= 1")
-    from .device import devices
+    from .compile import compile_scene
+    from .device import devices, select_device
     from .scene import Scene
     chosen = args.device or [d.index for d in devices() if d.type in ("cpu", "gpu")]
     chosen = [int(d) if isinstance(d, str) and d.isdigit() else d for d in chosen]
-    scene_path = Path(args.scene) if args.scene else _default_scene()
-    width, height = (int(v) for v in args.size.lower().split("x"))
-    spps = args.spp or [1, 16]
+    size = _size(args.size) if args.size else None
+    sweep_w, sweep_h = _size(args.sweep_size)
+    paths = suite_paths([n for n in args.scenes.split(",") if n.strip()]) if args.scenes.strip() else {}
+    sweep_paths = suite_paths([n for n in args.sweep.split(",") if n.strip()]) if args.sweep.strip() else {}
 
-    out = sys.stdout
     out.write(f"texray {__version__} bench: {platform.node()} {platform.processor() or platform.machine()}, "
               f"repeat {args.repeat}\n")
-    mesh_scene = bench_mesh_scene(args.triangles)
-    cs, bvh_result = bench_bvh(mesh_scene, max(1, min(args.repeat, 3)))
-    out.write(f"BVH: {bvh_result['triangles']} triangles in {bvh_result['build_s']['median']:.2f} s "
-              f"({bvh_result['build_s']['min']:.2f}-{bvh_result['build_s']['max']:.2f}), "
-              f"SAH cost {bvh_result['sah_cost']:.2f}, {bvh_result['nodes']} nodes, depth {bvh_result['depth']}\n")
-    showcase = Scene.load(scene_path)
     results = {"texray": __version__, "commit": _git_commit(), "host": platform.node(),
-               "argv": sys.argv[1:] if argv is None else list(argv), "repeat": args.repeat,
-               "bvh": bvh_result, "devices": {}}
-    from .device import select_device
+               "date": time.strftime("%Y-%m-%d %H:%M"), "argv": sys.argv[1:] if argv is None else list(argv),
+               "repeat": args.repeat, "devices": {}}
+    mesh_scene = cs_mesh = None
+    if args.rays:
+        mesh_scene = bench_mesh_scene(args.triangles)
+        cs_mesh, results["bvh"] = bench_bvh(mesh_scene, max(1, min(args.repeat, 3)))
+        b = results["bvh"]
+        out.write(f"BVH: {b['triangles']} triangles in {b['build_s']['median']:.2f} s "
+                  f"({b['build_s']['min']:.2f}-{b['build_s']['max']:.2f}), SAH cost {b['sah_cost']:.2f}, "
+                  f"{b['nodes']} nodes, depth {b['depth']}\n")
+    if paths:
+        all_scenes = sorted(scenes_dir().rglob("*.toml"))
+        results["variants"] = program_variants(all_scenes)
+        out.write(f"program variants to render all {len(all_scenes)} scenes in scenes/: "
+                  f"{len(results['variants'])}\n")
+    loaded = {}
+
+    def scene_of(name, path):
+        if name not in loaded:
+            sc = Scene.load(path)
+            loaded[name] = (sc, compile_scene(sc))
+        return loaded[name]
+
     for dev in chosen:
-        name = select_device(dev).name.strip()
-        r = {"rays": bench_rays(cs, mesh_scene, dev, args.rays, args.repeat),
-             "frames": [bench_frame(showcase, dev, width, height, s, args.repeat) for s in spps]}
-        results["devices"][name] = r
-        _print_device(name, r, out)
+        dname = select_device(dev).name.strip()
+        r = results["devices"][dname] = {"scenes": {}, "builds": {}, "sweeps": {}}
+        if args.rays:
+            r["rays"] = bench_rays(cs_mesh, mesh_scene, dev, args.rays, args.repeat)
+        for name, path in paths.items():
+            sc, cs = scene_of(name, path)
+            settings = getattr(sc, "render_settings", {})
+            w, h = size or (settings.get("width", 640), settings.get("height", 480))
+            spp = args.spp or settings.get("spp", 4)
+            out.write(f"  {name}: {w}x{h} {spp} spp...\n")
+            out.flush()
+            r["scenes"][name] = bench_scene(sc, cs, dev, w, h, spp, args.repeat, generic=not args.no_generic)
+            if not args.no_build:
+                r["builds"][name] = build_times(path, dev, generic=not args.no_generic)
+        for name, path in sweep_paths.items():
+            sc, cs = scene_of(name, path)
+            out.write(f"  sweep {name}: {sweep_w}x{sweep_h}, reference {args.ref_spp} spp...\n")
+            out.flush()
+            r["sweeps"][name] = sweep_scene(sc, cs, dev, sweep_w, sweep_h, args.repeat, args.ref_spp,
+                                            _csv_ints(args.sweep_spp, "--sweep-spp"))
+        if args.local_sizes:
+            sc, cs = scene_of("mixed", suite_paths(["mixed"])["mixed"])
+            sizes = _csv_ints(args.local_sizes, "--local-sizes")
+            w, h = size or (640, 480)
+            r["local_sizes"] = {"scene": "mixed", "size": f"{w}x{h}", "spp": 4,
+                                "frame_s": local_size_sweep(sc, cs, dev, w, h, 4, args.repeat, sizes)}
+        if args.peers:
+            from .bench_peers import bench_peers
+            peer_scenes = [p for n, p in suite_paths(["globe", "grazing_quad"]).items()]
+            peer_scenes.append(scenes_dir() / "showcase.toml")
+            r["peers"] = bench_peers(dev, args.repeat, args.triangles, args.rays or 1024, peer_scenes)
+        print_device(dname, r, out)
     Path(args.json).write_text(json.dumps(results, indent=1, default=str))
     out.write(f"\nwrote {args.json}\n")
+    plot_name = None
+    if args.plot and any(d.get("sweeps") for d in results["devices"].values()):
+        sweeps = {f"{s} ({dn})" if len(results["devices"]) > 1 else s: sw
+                  for dn, d in results["devices"].items() for s, sw in d["sweeps"].items()}
+        if plot(sweeps, args.plot):
+            plot_name = args.plot
+            out.write(f"wrote {args.plot}\n")
+        else:
+            out.write("no plot: matplotlib is not installed (pip install 'texray[bench]')\n")
+    if args.report:
+        rel = None
+        if plot_name:
+            try:
+                rel = str(Path(plot_name).resolve().relative_to(Path(args.report).resolve().parent))
+            except ValueError:
+                rel = str(Path(plot_name).resolve())
+        Path(args.report).write_text(markdown(results, rel))
+        out.write(f"wrote {args.report}\n")
     return 0
-
-
-def _default_scene():
-    here = Path(__file__).resolve()
-    for base in (Path.cwd(), here.parents[2]):
-        p = base / "scenes" / "showcase.toml"
-        if p.is_file():
-            return p
-    raise SystemExit("texray bench: scenes/showcase.toml not found; pass --scene")
 
 
 if __name__ == "__main__":

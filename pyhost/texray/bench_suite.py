@@ -1,0 +1,119 @@
+"""The benchmark's standard scenes (``scenes/bench/``) and what is measured on each.
+
+Per scene and device: whole frames and each kernel stage (OpenCL profiling
+events), for the specialized program (compiled for the scene's features) and
+the generic one (every feature compiled in); cold and warm program builds
+(fresh processes, see :mod:`texray.buildtime`); device memory. Every figure is
+the median over ``repeat`` runs after one warm-up run, with min and max.
+"""
+from __future__ import annotations
+
+import statistics
+import time
+from pathlib import Path
+
+# The suite, in the order it runs. Each is scenes/bench/<name>.toml.
+SUITE = ("mesh1m", "globe", "grazing_quad", "mixed")
+
+
+def median_spread(values):
+    values = list(values)
+    return {"median": statistics.median(values), "min": min(values), "max": max(values), "n": len(values)}
+
+
+def scenes_dir() -> Path:
+    """The repository's ``scenes/`` (from the working directory or the source tree)."""
+    here = Path(__file__).resolve()
+    for base in (Path.cwd(), here.parents[2]):
+        if (base / "scenes" / "bench").is_dir():
+            return base / "scenes"
+    raise SystemExit("texray bench: scenes/bench/ not found; run from the repository root")
+
+
+def suite_paths(names=None) -> dict[str, Path]:
+    """name -> scene file for the chosen suite scenes (default: all of SUITE). A name
+    that is a path to a .toml file is taken as it is."""
+    base = scenes_dir() / "bench"
+    out = {}
+    for name in names or SUITE:
+        p = Path(name)
+        if p.suffix == ".toml" and p.is_file():
+            out[p.stem] = p
+        elif (base / f"{name}.toml").is_file():
+            out[name] = base / f"{name}.toml"
+        else:
+            raise SystemExit(f"texray bench: no suite scene {name!r} (known: {', '.join(SUITE)}, or a .toml path)")
+    return out
+
+
+def frame_stats(runs, samples, shadow_rays):
+    """Medians and spreads of a list of render stats."""
+    stages = {k: median_spread([r["stage_s"][k] for r in runs]) for k in runs[0]["stage_s"]}
+    frame = median_spread([r["render_s"] for r in runs])
+    per_stage = {}
+    for k, v in stages.items():
+        work = shadow_rays if k == "shadow" else samples
+        per_stage[k] = work / v["median"] * 1e-6 if v["median"] > 0 and work else None
+    return {"frame_s": frame, "msamples_s": samples / frame["median"] * 1e-6, "stage_s": stages,
+            "stage_mrays_s": per_stage}
+
+
+def bench_scene(scene, compiled, device, width, height, spp, repeat, generic=True, local_size=None):
+    """Frames of one scene on one device: specialized (and generic) programs."""
+    from .render import render
+    samples = width * height * spp
+    shadow_rays = samples * len(compiled.lights) if compiled.features.shadows else 0
+    out = {"width": width, "height": height, "spp": spp, "lights": int(len(compiled.lights))}
+    variants = [("specialized", True)] + ([("generic", False)] if generic else [])
+    for name, specialize in variants:
+        kw = dict(device=device, compiled=compiled, specialize=specialize, local_size=local_size)
+        first = render(scene, width, height, spp, **kw)                    # warm-up (and build)
+        runs = [render(scene, width, height, spp, **kw).stats for _ in range(repeat)]
+        r = frame_stats(runs, samples, shadow_rays)
+        r["program_build_s"] = first.stats["program_build_s"]
+        r["device_bytes"] = sum(first.stats["device_bytes"].values())
+        r["ray_buffer_bytes"] = first.stats["ray_buffer_bytes"]
+        r["features"] = {k: v for k, v in vars(first.stats["features"]).items()}
+        out[name] = r
+    if generic:
+        out["generic_over_specialized"] = (out["generic"]["frame_s"]["median"]
+                                           / out["specialized"]["frame_s"]["median"])
+    return out
+
+
+def build_times(path, device, generic=True):
+    """Cold and warm build seconds of the scene's specialized (and generic) program."""
+    from .buildtime import measure
+    out = {"specialized": measure(path, device, specialize=True)}
+    if generic:
+        out["generic"] = measure(path, device, specialize=False)
+    return out
+
+
+def program_variants(paths):
+    """The distinct programs (feature sets) that rendering every scene in ``paths`` builds."""
+    from .compile import compile_scene
+    from .features import compile_options
+    from .scene import Scene
+    seen = {}
+    for p in paths:
+        t0 = time.perf_counter()
+        cs = compile_scene(Scene.load(p))
+        key = tuple(sorted(compile_options(cs.features).items()))
+        seen.setdefault(key, []).append(str(p))
+        del cs, t0
+    return [{"defines": dict(k), "scenes": v} for k, v in seen.items()]
+
+
+def local_size_sweep(scene, compiled, device, width, height, spp, repeat, sizes):
+    """Frame time per work-group size (0 = the driver's choice), interleaved over repeats
+    so that machine noise hits every size alike."""
+    from .render import render
+    times = {s: [] for s in sizes}
+    for s in sizes:       # warm-up: PoCL generates code per local size
+        render(scene, width, height, spp, device=device, compiled=compiled, local_size=s)
+    for _ in range(repeat):
+        for s in sizes:
+            times[s].append(render(scene, width, height, spp, device=device, compiled=compiled,
+                                   local_size=s).stats["render_s"])
+    return {str(s): median_spread(v) for s, v in times.items()}
