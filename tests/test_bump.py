@@ -4,9 +4,10 @@ against float64 closed forms (kernels/bump.h, kernels/terminator.h, texray.bump)
 Heights are chosen so that half-float texels store them exactly (multiples of 1/256
 below 1): the ramp tests then measure the kernels' float32 arithmetic only, hence the
 1e-4 tolerance on unit normals."""
+import itertools
+
 import numpy as np
 import pytest
-
 import texray as tx
 from texray import layout
 from texray.mapping import project_numpy
@@ -195,7 +196,7 @@ def test_central_differences_converge_to_the_analytic_gradient(device):
     hit = ~np.isnan(normals["analytic"][..., 0])
     err = [np.sqrt(np.mean(np.sum((normals[d][hit] - normals["analytic"][hit]) ** 2, -1)))
            for d in (8 / n, 4 / n, 2 / n, None)]
-    assert all(a > b for a, b in zip(err, err[1:])), err
+    assert all(a > b for a, b in itertools.pairwise(err)), err
     assert err[-1] < 0.2 * err[0], err
 
 
@@ -339,3 +340,61 @@ def test_material_layout_of_bump_and_normal_map():
     plain.add(tx.Sphere())
     f = compile_scene(plain).features
     assert not f.bump and not f.normal_maps
+
+
+def test_scene_file_bump_and_normal_map(tmp_path):
+    import OpenImageIO as oiio
+    h = np.linspace(0, 1, 16, dtype=np.float32)[None, :].repeat(16, 0)
+    out = oiio.ImageOutput.create(str(tmp_path / "h.png"))
+    out.open(str(tmp_path / "h.png"), oiio.ImageSpec(16, 16, 1, "uint8"))
+    out.write_image(h)
+    out.close()
+    text = """
+[textures.h]
+file = "h.png"
+[textures.n]
+procedural = "checker"
+[materials.b]
+bump = { texture = "h", height = 0.02, delta = "analytic" }
+[materials.n]
+normal_map = { texture = "n", convention = "directx", space = "tangent" }
+[[objects]]
+type = "sphere"
+material = "b"
+[[objects]]
+type = "sphere"
+center = [3, 0, 0]
+material = "n"
+"""
+    (tmp_path / "s.toml").write_text(text)
+    scene = tx.Scene.load(tmp_path / "s.toml")
+    b, n = scene.objects[0].material.bump, scene.objects[1].material.normal_map
+    assert b.height == 0.02 and b.delta == "analytic" and n.convention == "directx"
+    from texray.compile import compile_scene
+    cs = compile_scene(scene)
+    assert cs.features.bump and cs.features.normal_maps
+    for bad, match in (('height = "x"', r"bad\.toml: materials\.b\.bump\.height: expected int or float, got 'x'"),
+                       ("height = 0.02, delta = 3.0", r"materials\.b\.bump\.delta: 3\.0 is outside"),
+                       ("height = 0.02, scale = 1", r"materials\.b\.bump\.scale: unknown key")):
+        (tmp_path / "bad.toml").write_text(text.replace("height = 0.02, delta = \"analytic\"", bad))
+        with pytest.raises(tx.SceneError, match=match):
+            tx.Scene.load(tmp_path / "bad.toml")
+    (tmp_path / "bad.toml").write_text(text.replace('convention = "directx"', 'convention = "y-up"'))
+    with pytest.raises(tx.SceneError, match=r"materials\.n\.normal_map\.convention: expected one of"):
+        tx.Scene.load(tmp_path / "bad.toml")
+    (tmp_path / "bad.toml").write_text(text.replace('texture = "h"', 'texture = "nope"'))
+    with pytest.raises(tx.SceneError, match=r"materials\.b\.bump\.texture: no texture named 'nope'"):
+        tx.Scene.load(tmp_path / "bad.toml")
+
+
+def test_data_textures_are_not_srgb_decoded(device):
+    """A normal map tagged sRGB (as 8-bit PNGs load by default) gives the normal its stored values encode."""
+    rgb = np.broadcast_to(np.float32([0.5, 0.8, 0.9]), (4, 4, 3)).copy()
+    out = []
+    for cs in ("linear", "srgb"):
+        nm = tx.NormalMap(tx.Texture.from_array(rgb, colorspace=cs, name=cs))
+        out.append(render_aov(plane("quad", UV_A, tx.Material(normal_map=nm)), top_camera(),
+                              names=("shading_normal",), device=device).aov["shading_normal"])
+    np.testing.assert_array_equal(out[0], out[1])
+    hit = ~np.isnan(out[0][..., 0])
+    np.testing.assert_allclose(out[0][hit], np.broadcast_to([0, 0.8, -0.6], (hit.sum(), 3)), atol=2e-3)

@@ -7,7 +7,10 @@ Writes into ``OUT/meshes/``: ``vase.obj``, ``torus.obj`` (v/vt/vn/f lines
 only, ``f a/a/a`` with shared indices, no material library), and into
 ``OUT/textures/``: ``wood.png``, ``checker.png``, ``bricks.png`` (8-bit RGB,
 sRGB-encoded display values) and ``bricks_height.png`` (8-bit, 1 channel,
-linear height data (tagged linear) matching ``bricks.png``), all 512 x 512.
+linear height data (tagged linear) matching ``bricks.png``), all 512 x 512;
+``globe_height.png`` (the continents' relief of ``globe.png``) and
+``tiles_normal.png`` (a tangent-space normal map, OpenGL convention, made from a
+tile height field by ``normal_map_from_height``), linear data.
 """
 from __future__ import annotations
 
@@ -95,7 +98,31 @@ def textures():
         "bricks_height.png": (proc.bricks_height(s, seed=3), "linear"),
         "globe.png": (proc.globe((512, 1024)), "sRGB"),
         "label.png": (proc.label((256, 512)), "sRGB"),
+        "globe_height.png": (globe_height((512, 1024)), "linear"),
+        "tiles_normal.png": (normal_map_from_height(
+            proc.bricks_height(s, n_rows=6, n_cols=6, mortar=0.08, bevel=0.06, seed=4, offset=0.0), 6.0), "linear"),
     }
+
+
+def globe_height(size, seed=5, sea_level=0.52):
+    """Relief of proc.globe's continents (same noise), 0 at sea level and below, 1 at the highest land."""
+    h, w = size
+    height = proc._fbm(h, w, (3, 6), 6, seed)
+    return np.clip((height - sea_level) / (1 - sea_level), 0, 1)[..., None].astype(np.float32)
+
+
+def normal_map_from_height(height, strength):
+    """Tangent-space normal map (OpenGL convention: green = +v, up the image) of a tileable
+    (H, W, 1) height field in [0, 1]: n = normalize(-k dh/du, -k dh/dv, 1) by periodic central
+    differences, with k = strength / texels across (heights in units of the texture's width),
+    encoded as (n + 1) / 2."""
+    hgt = height[..., 0].astype(np.float64)
+    h, w = hgt.shape
+    dh_du = (np.roll(hgt, -1, 1) - np.roll(hgt, 1, 1)) * (w / 2.0)
+    dh_dv = (np.roll(hgt, 1, 0) - np.roll(hgt, -1, 0)) * (h / 2.0)      # row 0 is the top: v grows upward
+    n = np.stack([-strength * dh_du / w, -strength * dh_dv / w, np.ones_like(hgt)], -1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    return ((n + 1.0) / 2.0).astype(np.float32)
 
 
 def main(argv=None):
