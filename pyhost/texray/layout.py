@@ -127,7 +127,7 @@ TEXTURE = np.dtype([
     ("m1", "<f4", (2,)), ("pad0", "<f4"), ("pad1", "<f4"),
 ])
 
-# --- Per-object data: 80 bytes -----------------------------------------------
+# --- Per-object data: 128 bytes -----------------------------------------------
 # mapping: -1 = the primitive's own uv, else kernels/mapping.h TX_MAP_* with
 # the projection frame in world space (axes scaled by the projection's scale).
 OBJECT = np.dtype([
@@ -140,6 +140,10 @@ OBJECT = np.dtype([
 
 # --- Point light: 32 bytes --------------------------------------------------
 POINT_LIGHT = np.dtype([
+    # rows of the object's normal matrix (inverse transpose of its transform): object-space normal maps
+    ("nm0", "<f4", (3,)), ("pad7", "<f4"),
+    ("nm1", "<f4", (3,)), ("pad8", "<f4"),
+    ("nm2", "<f4", (3,)), ("pad9", "<f4"),
     ("position", "<f4", (3,)), ("pad0", "<f4"),
     ("intensity", "<f4", (3,)), ("pad1", "<f4"),
 ])
