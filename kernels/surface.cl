@@ -32,7 +32,8 @@ __kernel void surface(__global const Ray* rays, __global const Hit* hits, __glob
                       TX_GEOM_PARAMS, __global const TriShade* tri_shade, __global const QuadShade* quad_shade,
                       __global const float* normals, __global const float* uvs,
                       __global const Material* materials, __global const TextureInfo* textures,
-                      __global const half* texels, __global const ObjectInfo* objects, __global float* aov)
+                      __global const half* texels, __global const ObjectInfo* objects, __global float* aov,
+                      __constant Camera* cam, uint image_w, uint image_h, uint spp)
 {
     uint gid = get_global_id(0);
     if (gid >= n) return;
@@ -51,6 +52,7 @@ __kernel void surface(__global const Ray* rays, __global const Hit* hits, __glob
     uint material = 0u, object = 0u, prim = 0u;
     int vertex_normal = 0;
     float3 ns_raw = (float3)(0.0f);
+    float3 lift = (float3)(0.0f);         /* shadow-ray origin p + lift: terminator.h */
     if (kind == PRIM_TRIANGLE) {
         __global const TriShade* ts = tri_shade + idx;
         triangle_geom(tris + idx, ts, h->b1, h->b2, uvs, &g);
@@ -61,6 +63,10 @@ __kernel void surface(__global const Ray* rays, __global const Hit* hits, __glob
             ns_raw = b0 * vload3(ts->v[0], normals) + h->b1 * vload3(ts->v[1], normals)
                    + h->b2 * vload3(ts->v[2], normals);
             vertex_normal = dot3(ns_raw, ns_raw) > 0.0f;
+            if (vertex_normal && dot3(ns_raw, dir) < 0.0f)     /* seen from the normals' side */
+                lift = terminator_lift(g.p, tri_p0(tris + idx), tri_p1(tris + idx), tri_p2(tris + idx),
+                                       normalize3(vload3(ts->v[0], normals)), normalize3(vload3(ts->v[1], normals)),
+                                       normalize3(vload3(ts->v[2], normals)), b0, h->b1, h->b2);
         }
 #endif
     }
@@ -85,33 +91,89 @@ __kernel void surface(__global const Ray* rays, __global const Hit* hits, __glob
         material = qs->material; object = qs->object; prim = qs->prim;
     }
 #endif
+    /* Texture coordinates with their screen-space derivatives (pbrt-v4 TextureEvalContext):
+     * dp/dx, dp/dy from the camera (differentials.h), only where a trilinear lookup needs them;
+     * elsewhere zero, which texture.h reads as level 0. */
+    float3 dpdx = (float3)(0.0f), dpdy = (float3)(0.0f);
+    TexCoord tc;
+    tc.uv = g.uv;
+    tc.duv_dx = tc.duv_dy = (float2)(0.0f);
+#if TX_FILTER_TRILINEAR
+    camera_dp_dxy(cam, image_w, image_h, differential_scale(spp), dir, h->t, g.ng, &dpdx, &dpdy);
+    tc = uv_differentials(g.uv, g.dpdu, g.dpdv, dpdx, dpdy);
+#endif
 #if TX_PROJECTIONS
     /* A projection mapping of the object replaces the primitive's own uv. */
     __global const ObjectInfo* ob = objects + object;
     if (ob->mapping >= 0) {
         Frame f = { vload3(0, ob->origin), vload3(0, ob->x), vload3(0, ob->y), vload3(0, ob->z) };
-        g.uv = map_projection(ob->mapping, f, g.p, (float3)(0.0f), (float3)(0.0f)).uv;
+        tc = map_projection(ob->mapping, f, g.p, dpdx, dpdy);   /* derivatives by the chain rule */
+        g.uv = tc.uv;
+        map_tangents(ob->mapping, f, g.p, g.ng, &g.dpdu, &g.dpdv);   /* dP/du, dP/dv of that uv */
+    }
+#endif
+    /* The outward shading normal (the vertex normals' side for meshes with them); a bump
+     * or normal map replaces it in that frame (bump.h), before normals face the ray. */
+    float3 n_out = vertex_normal ? normalize3(ns_raw) : g.ng;
+#if TX_BUMP || TX_NORMAL_MAPS
+    __global const Material* mn = materials + material;
+#endif
+#if TX_BUMP
+    if (mn->bump_tex >= 0)
+        n_out = bump_normal(n_out, g.dpdu, g.dpdv, bump_gradient(texels, textures + mn->bump_tex, tc,
+                                                                 mn->bump_height, mn->bump_delta));
+#endif
+#if TX_NORMAL_MAPS
+    if (mn->normal_tex >= 0) {
+        __global const TextureInfo* nt = textures + mn->normal_tex;
+        float3 nm0 = (float3)(1.0f, 0.0f, 0.0f), nm1 = (float3)(0.0f, 1.0f, 0.0f), nm2 = (float3)(0.0f, 0.0f, 1.0f);
+        if (mn->normal_mode & TX_NORMAL_OBJECT) {
+            __global const ObjectInfo* on = objects + object;
+            nm0 = vload3(0, on->nm0); nm1 = vload3(0, on->nm1); nm2 = vload3(0, on->nm2);
+        }
+        n_out = normal_map_normal(n_out, g.dpdu, g.dpdv, texture_eval(texels, nt, tc).xyz, mn->normal_mode,
+                                  nm0, nm1, nm2);
     }
 #endif
     float side = dot3(g.ng, dir) > 0.0f ? -1.0f : 1.0f;   /* face the incoming ray */
     float3 ng = side * g.ng;
-    float3 ns = vertex_normal ? side * normalize3(ns_raw) : ng;
+    float3 ns = side * n_out;
+#if TX_BUMP || TX_NORMAL_MAPS || TX_VERTEX_NORMALS
+    ns = shading_normal_facing(ns, ng, -normalize3(dir));   /* bump.h: no normal facing away */
+#endif
 
     __global const Material* m = materials + material;
-    float3 kd = vload3(0, m->diffuse);
+    /* Textures alter the terms of the local illumination (the lecture): kd, the label over
+     * it, ks and n. Each role's code is compiled only when a material uses it. */
+    float3 kd = vload3(0, m->diffuse), ks = vload3(0, m->specular);
+    float shininess = m->shininess;
 #if TX_TEXTURES
     if (m->diffuse_tex >= 0)
-        kd *= texture_bilinear(texels, textures + m->diffuse_tex,
-                               texture_coords(textures + m->diffuse_tex, g.uv)).xyz;
+        kd *= texture_eval(texels, textures + m->diffuse_tex, tc).xyz;
+#endif
+#if TX_LABELS
+    if (m->label_tex >= 0) {
+        float4 lb = texture_label(texels, textures + m->label_tex, tc);   /* premultiplied */
+        kd = kd * (1.0f - lb.w) + lb.xyz;                                 /* lerp(kd, rgb, alpha) */
+    }
+#endif
+#if TX_SPECULAR_MAPS
+    if (m->specular_tex >= 0)
+        ks *= texture_eval(texels, textures + m->specular_tex, tc).xyz;
+#endif
+#if TX_SHININESS_MAPS
+    if (m->shininess_tex >= 0)
+        shininess *= texture_eval(texels, textures + m->shininess_tex, tc).x;   /* n = shininess * map */
 #endif
     vstore3(g.p, 0, s->p);
     s->offset = dot3(abs3(ng), g.perr);
     vstore3(ng, 0, s->ng);
     s->valid = 1u;
     vstore3(ns, 0, s->ns);
-    s->shininess = m->shininess;
+    vstore3(lift, 0, s->lift);
+    s->shininess = shininess;
     vstore3(kd, 0, s->kd);
-    vstore3(vload3(0, m->specular), 0, s->ks);
+    vstore3(ks, 0, s->ks);
 #if TX_AOVS
     if (aov) write_aovs(aov, gid, &g, ns, h->t * sqrt(dot3(dir, dir)), prim, object);
 #endif

@@ -18,7 +18,14 @@
 #include "bvh.h"
 #include "wrap.h"
 #include "mapping.h"
+#include "differentials.h"
 #include "texture.h"
+#if TX_BUMP || TX_NORMAL_MAPS || TX_VERTEX_NORMALS
+#include "bump.h"
+#endif
+#if TX_VERTEX_NORMALS
+#include "terminator.h"
+#endif
 #include "raygen.cl"
 #include "intersect.cl"
 #include "surface.cl"

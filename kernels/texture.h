@@ -1,10 +1,51 @@
 #line 2 "texture.h"
-/* Texture lookups. Texels are linear RGBA halves, row 0 = the image's top row;
- * u runs along columns, v = 0 is the bottom row and v = 1 the top (the OBJ /
- * OpenGL convention). Texel centres sit at ((i + 0.5) / W, 1 - (j + 0.5) / H).
- * Each texture carries its wrap mode (wrap.h) and UV transform (TextureInfo). */
+/* Texture lookups. Texels are linear RGBA halves (texray.texture decodes them per
+ * role on the host), row 0 = the image's top row; u runs along columns, v = 0 is
+ * the bottom row and v = 1 the top (the OBJ / OpenGL convention). Texel centres
+ * sit at ((i + 0.5) / W, 1 - (j + 0.5) / H). Each texture carries its wrap mode
+ * (wrap.h), UV transform and filter (TextureInfo, texray.layout.TEXTURE).
+ *
+ * Filters: FILTER_NEAREST (the texel the point falls in, level 0),
+ * FILTER_BILINEAR (level 0) and FILTER_TRILINEAR (bilinear in the two MIP
+ * levels around the level of detail, blended linearly). The code of a filter is
+ * compiled in only when some texture of the scene uses it (TX_FILTER_*).
+ *
+ * MIP levels: level l is max(1, W >> l) x max(1, H >> l) texels, stored right
+ * after level l - 1 (texray.texture.mip_pyramid makes them: exact box filter,
+ * odd sizes included). Every level spans the whole [0, 1]^2, so the same uv
+ * addresses every level. */
 #ifndef TEXRAY_TEXTURE_H
 #define TEXRAY_TEXTURE_H
+
+typedef struct { uint offset; int w, h; } TexLevel;     /* one MIP level: first texel, size */
+
+/* Level l of a texture, l clamped to [0, levels - 1]. The offsets are summed on
+ * the fly (at most 32 steps; no level table to upload). */
+inline TexLevel texture_level(__global const TextureInfo* ti, int l)
+{
+    uint off = ti->offset, w = ti->width, h = ti->height;
+    int last = (int)ti->levels - 1;
+    l = l < last ? l : last;
+    for (int k = 0; k < l; ++k) {
+        off += w * h;
+        w = TX_MAX(1u, w >> 1);
+        h = TX_MAX(1u, h >> 1);
+    }
+    TexLevel r = { off, (int)w, (int)h };
+    return r;
+}
+
+/* The level after lv (the caller knows it exists). */
+inline TexLevel texture_next_level(TexLevel lv)
+{
+    TexLevel r = { lv.offset + (uint)lv.w * (uint)lv.h, TX_MAX(1, lv.w >> 1), TX_MAX(1, lv.h >> 1) };
+    return r;
+}
+
+inline float4 texel_at(__global const half* texels, TexLevel lv, int x, int y)
+{
+    return vload_half4(lv.offset + (uint)y * (uint)lv.w + (uint)x, texels);
+}
 
 inline float4 texel(__global const half* texels, __global const TextureInfo* ti, int x, int y)
 {
@@ -17,22 +58,120 @@ inline float2 texture_coords(__global const TextureInfo* ti, float2 uv)
     return uv_transform(uv, vload4(0, ti->m0), vload2(0, ti->m1));
 }
 
-/* Bilinear filtering in the texture's wrap mode. Coordinates are reduced to a
- * small range before scaling (wrap_reduce), so huge (u, v) never overflow an
- * int, and NaN maps to a defined texel rather than out of bounds. Rows are
+/* Bilinear filtering of one level in wrap mode `mode`. Coordinates are reduced
+ * to a small range before scaling (wrap_reduce), so huge (u, v) never overflow
+ * an int, and NaN maps to a defined texel rather than out of bounds. Rows are
  * wrapped from the top (1 - v), which every wrap mode allows (wrap.h). */
-inline float4 texture_bilinear(__global const half* texels, __global const TextureInfo* ti, float2 uv)
+inline float4 texture_bilinear_level(__global const half* texels, TexLevel lv, int mode, float2 uv)
 {
-    int w = (int)ti->width, h = (int)ti->height, mode = (int)ti->wrap;
-    float x = wrap_reduce(uv.x, mode) * (float)w - 0.5f;
-    float y = (1.0f - wrap_reduce(uv.y, mode)) * (float)h - 0.5f;
+    float x = wrap_reduce(uv.x, mode) * (float)lv.w - 0.5f;
+    float y = (1.0f - wrap_reduce(uv.y, mode)) * (float)lv.h - 0.5f;
     float fx = floor(x), fy = floor(y);
     float ax = x - fx, ay = y - fy;
-    int x0 = wrap_index((int)fx, w, mode), x1 = wrap_index((int)fx + 1, w, mode);
-    int y0 = wrap_index((int)fy, h, mode), y1 = wrap_index((int)fy + 1, h, mode);
-    float4 t00 = texel(texels, ti, x0, y0), t10 = texel(texels, ti, x1, y0);
-    float4 t01 = texel(texels, ti, x0, y1), t11 = texel(texels, ti, x1, y1);
+    int x0 = wrap_index((int)fx, lv.w, mode), x1 = wrap_index((int)fx + 1, lv.w, mode);
+    int y0 = wrap_index((int)fy, lv.h, mode), y1 = wrap_index((int)fy + 1, lv.h, mode);
+    float4 t00 = texel_at(texels, lv, x0, y0), t10 = texel_at(texels, lv, x1, y0);
+    float4 t01 = texel_at(texels, lv, x0, y1), t11 = texel_at(texels, lv, x1, y1);
     return (t00 * (1.0f - ax) + t10 * ax) * (1.0f - ay) + (t01 * (1.0f - ax) + t11 * ax) * ay;
+}
+
+/* Bilinear filtering of level 0 (uv already transformed). */
+inline float4 texture_bilinear(__global const half* texels, __global const TextureInfo* ti, float2 uv)
+{
+    return texture_bilinear_level(texels, texture_level(ti, 0), (int)ti->wrap, uv);
+}
+
+/* The level-0 texel that uv falls in (wrap.h wrap_nearest; rows from the top). */
+inline float4 texture_nearest(__global const half* texels, __global const TextureInfo* ti, float2 uv)
+{
+    TexLevel lv = texture_level(ti, 0);
+    int mode = (int)ti->wrap;
+    return texel_at(texels, lv, wrap_nearest(uv.x, lv.w, mode), lv.h - 1 - wrap_nearest(uv.y, lv.h, mode));
+}
+
+/* Level of detail of a pixel footprint, the OpenGL rule (4.6 core, 8.14.1, isotropic):
+ * lod = log2(rho), rho = the longer of the screen-x and screen-y steps of
+ * (u W, v H), i.e. the footprint in level-0 texels. duv_dx, duv_dy: derivatives of
+ * the transformed coordinates. Zero derivatives give -inf, NaN gives NaN: the
+ * lookups clamp both to level 0. */
+inline float texture_lod(__global const TextureInfo* ti, float2 duv_dx, float2 duv_dy)
+{
+    float2 s = (float2)((float)ti->width, (float)ti->height);
+    float2 a = duv_dx * s, b = duv_dy * s;
+    return 0.5f * log2(TX_MAX(a.x * a.x + a.y * a.y, b.x * b.x + b.y * b.y));
+}
+
+/* lod clamped to [0, levels - 1]; NaN -> 0. */
+inline float texture_clamp_lod(__global const TextureInfo* ti, float lod)
+{
+    float last = (float)((int)ti->levels - 1);
+    return lod > 0.0f ? TX_MIN(lod, last) : 0.0f;
+}
+
+/* Trilinear MIP mapping: bilinear in levels floor(lod) and floor(lod) + 1, blended
+ * by the fraction (Williams 1983). lod <= 0 (magnification) is level 0 bilinear. */
+inline float4 texture_trilinear(__global const half* texels, __global const TextureInfo* ti, float2 uv, float lod)
+{
+    lod = texture_clamp_lod(ti, lod);
+    int l0 = (int)lod;
+    float f = lod - (float)l0;
+    int mode = (int)ti->wrap;
+    TexLevel a = texture_level(ti, l0);
+    float4 c = texture_bilinear_level(texels, a, mode, uv);
+    if (f > 0.0f)
+        c = c * (1.0f - f) + texture_bilinear_level(texels, texture_next_level(a), mode, uv) * f;
+    return c;
+}
+
+/* The texture's filter at transformed coordinates t (uv and screen derivatives). */
+inline float4 texture_sample(__global const half* texels, __global const TextureInfo* ti, TexCoord t)
+{
+#if TX_FILTER_TRILINEAR && !TX_FILTER_NEAREST && !TX_FILTER_BILINEAR
+    return texture_trilinear(texels, ti, t.uv, texture_lod(ti, t.duv_dx, t.duv_dy));
+#elif TX_FILTER_NEAREST && !TX_FILTER_TRILINEAR && !TX_FILTER_BILINEAR
+    return texture_nearest(texels, ti, t.uv);
+#else
+#if TX_FILTER_TRILINEAR
+    if (ti->filter == FILTER_TRILINEAR) return texture_trilinear(texels, ti, t.uv, texture_lod(ti, t.duv_dx, t.duv_dy));
+#endif
+#if TX_FILTER_NEAREST
+    if (ti->filter == FILTER_NEAREST) return texture_nearest(texels, ti, t.uv);
+#endif
+    return texture_bilinear(texels, ti, t.uv);
+#endif
+}
+
+/* A texture's value at surface coordinates tc (uv with d(uv)/dx, d(uv)/dy; zero
+ * derivatives read level 0): its UV transform, then its filter. */
+inline float4 texture_eval(__global const half* texels, __global const TextureInfo* ti, TexCoord tc)
+{
+    return texture_sample(texels, ti, texcoord_transform(tc, vload4(0, ti->m0), vload2(0, ti->m1)));
+}
+
+/* The (unclamped) lod texture_eval(ti, tc) uses, for trilinear textures. */
+inline float texture_eval_lod(__global const TextureInfo* ti, TexCoord tc)
+{
+    float4 m0 = vload4(0, ti->m0);
+    return texture_lod(ti, uv_transform_vector(tc.duv_dx, m0), uv_transform_vector(tc.duv_dy, m0));
+}
+
+/* Contract: the (du, dv) size, in the texture's transformed coordinates, of one texel
+ * of the MIP level a lookup at `lod` reads first (level floor(clamped lod); level 0
+ * for a texture without MIP levels, i.e. any filter but trilinear). */
+inline float2 texture_texel_size(__global const TextureInfo* ti, float lod)
+{
+    TexLevel lv = texture_level(ti, (int)texture_clamp_lod(ti, lod));
+    return (float2)(1.0f / (float)lv.w, 1.0f / (float)lv.h);
+}
+
+/* The lecture's texture used as label: the texture (premultiplied by alpha on the
+ * host, role "label") where its transformed uv lies in [0, 1]^2, and 0 (absent)
+ * elsewhere or for NaN uv; composite as kd (1 - a) + rgb. */
+inline float4 texture_label(__global const half* texels, __global const TextureInfo* ti, TexCoord tc)
+{
+    TexCoord t = texcoord_transform(tc, vload4(0, ti->m0), vload2(0, ti->m1));
+    if (!(t.uv.x >= 0.0f && t.uv.x <= 1.0f && t.uv.y >= 0.0f && t.uv.y <= 1.0f)) return (float4)(0.0f);
+    return texture_sample(texels, ti, t);
 }
 
 #endif

@@ -94,14 +94,12 @@ def render_reference(scene, width, height):
             ns[has] = side[has] * m[has] / np.linalg.norm(m[has], axis=1, keepdims=True)
         mats = cs.materials[tris["material"][i]]
         kd = mats["diffuse"].astype(np.float64)
+        ks = mats["specular"].astype(np.float64)
+        shin = mats["shininess"].astype(np.float64)
         if cs.textures is not None:
             uvs = cs.uvs.reshape(-1, 2).astype(np.float64)
             uv = B0 * uvs[v[:, 0]] + B1 * uvs[v[:, 1]] + B2 * uvs[v[:, 2]]
-            for tex_id, tex in enumerate(_textures(scene)):
-                sel = mats["diffuse_tex"] == tex_id
-                kd[sel] *= bilinear(tex.rgba, uv[sel])[:, :3]
-        ks = mats["specular"].astype(np.float64)
-        shin = mats["shininess"].astype(np.float64)
+            kd, ks, shin = apply_texture_roles(cs, mats, uv, kd, ks, shin)
         view = -d[hit] / np.linalg.norm(d[hit], axis=1, keepdims=True)
         col = np.asarray(scene.ambient, np.float64) * kd
         for li, light in enumerate(scene.lights):
@@ -125,11 +123,113 @@ def render_reference(scene, width, height):
     return rgb.reshape(height, width, 3), tri.reshape(height, width), vis_all.reshape(height, width, nl)
 
 
-def _textures(scene):
-    seen, out = set(), []
-    for o in scene.objects:
-        for t in o.material.textures:
-            if id(t) not in seen:
-                seen.add(id(t))
-                out.append(t)
+# --- Texture roles and filters (kernels/texture.h), float64 on the stored half texels ---------
+
+def wrap_index(i, n, mode):
+    """kernels/wrap.h wrap_index for an int array (mode: 0 repeat, 1 clamp, 2 mirror)."""
+    if mode == 1:
+        return np.clip(i, 0, n - 1)
+    if mode == 2:
+        r = np.mod(i, 2 * n)
+        return np.where(r < n, r, 2 * n - 1 - r)
+    return np.mod(i, n)
+
+
+def texture_levels(cs, tex_id):
+    """The MIP levels of texture-table entry ``tex_id`` as float64 (h, w, 4) arrays, read from the
+    packed half texels (level l: max(1, W >> l) x max(1, H >> l), contiguous)."""
+    t = cs.textures[tex_id]
+    off, w, h = int(t["offset"]), int(t["width"]), int(t["height"])
+    texels = cs.texels.astype(np.float64).reshape(-1, 4)
+    out = []
+    for _ in range(int(t["levels"])):
+        out.append(texels[off:off + w * h].reshape(h, w, 4))
+        off += w * h
+        w, h = max(1, w >> 1), max(1, h >> 1)
     return out
+
+
+def bilinear_level(level, uv, mode):
+    h, w = level.shape[:2]
+    x = uv[:, 0] * w - 0.5
+    y = (1 - uv[:, 1]) * h - 0.5
+    fx, fy = np.floor(x), np.floor(y)
+    ax, ay = (x - fx)[:, None], (y - fy)[:, None]
+    x0, y0 = wrap_index(fx.astype(np.int64), w, mode), wrap_index(fy.astype(np.int64), h, mode)
+    x1, y1 = wrap_index(fx.astype(np.int64) + 1, w, mode), wrap_index(fy.astype(np.int64) + 1, h, mode)
+    t = level
+    return (t[y0, x0] * (1 - ax) + t[y0, x1] * ax) * (1 - ay) + (t[y1, x0] * (1 - ax) + t[y1, x1] * ax) * ay
+
+
+def transform_uv(cs, tex_id, uv):
+    t = cs.textures[tex_id]
+    m0, m1 = t["m0"].astype(np.float64), t["m1"].astype(np.float64)
+    a = np.array([[m0[0], m0[1]], [m0[2], m0[3]]])
+    return uv @ a.T + m1, a
+
+
+def sample(cs, tex_id, uv, duv_dx=None, duv_dy=None):
+    """(N, 4) float64: entry ``tex_id`` at untransformed (N, 2) uv with its own transform, wrap
+    mode and filter; trilinear needs d(uv)/dx, d(uv)/dy (untransformed)."""
+    t = cs.textures[tex_id]
+    mode, filt = int(t["wrap"]), int(t["filter"])
+    uv, a = transform_uv(cs, tex_id, np.asarray(uv, np.float64))
+    levels = texture_levels(cs, tex_id)
+    if filt == 0:                                   # nearest
+        h, w = levels[0].shape[:2]
+        x = wrap_index(np.floor(uv[:, 0] * w).astype(np.int64), w, mode)
+        y = h - 1 - wrap_index(np.floor(uv[:, 1] * h).astype(np.int64), h, mode)
+        return levels[0][y, x]
+    if filt == 1 or duv_dx is None:
+        return bilinear_level(levels[0], uv, mode)
+    lod = texture_lod(t, duv_dx @ a.T, duv_dy @ a.T)
+    return trilinear(levels, uv, lod, mode)
+
+
+def texture_lod(t, duv_dx, duv_dy):
+    """The OpenGL level of detail: log2 of the longer footprint axis in level-0 texels."""
+    s = np.array([float(t["width"]), float(t["height"])])
+    rho2 = np.maximum(np.sum((duv_dx * s) ** 2, axis=1), np.sum((duv_dy * s) ** 2, axis=1))
+    with np.errstate(divide="ignore"):
+        return 0.5 * np.log2(rho2)
+
+
+def trilinear(levels, uv, lod, mode):
+    lod = np.clip(np.nan_to_num(lod, nan=0.0, neginf=0.0), 0, len(levels) - 1)
+    l0 = np.floor(lod).astype(np.int64)
+    f = (lod - l0)[:, None]
+    out = np.zeros((len(uv), 4))
+    for lv in np.unique(l0):
+        sel = l0 == lv
+        c = bilinear_level(levels[lv], uv[sel], mode)
+        if lv + 1 < len(levels):
+            c = c * (1 - f[sel]) + bilinear_level(levels[lv + 1], uv[sel], mode) * f[sel]
+        out[sel] = c
+    return out
+
+
+def _role(cs, mats, slot, uv, label=False):
+    """(values (N, 4), mask) of a material slot's texture at uv (bilinear / nearest only)."""
+    ids = mats[slot]
+    out = np.zeros((len(uv), 4))
+    for tid in np.unique(ids[ids >= 0]):
+        sel = ids == tid
+        out[sel] = sample(cs, tid, uv[sel])
+        if label:
+            tuv, _ = transform_uv(cs, tid, uv[sel])
+            inside = np.all((tuv >= 0) & (tuv <= 1), axis=1)
+            out[np.flatnonzero(sel)[~inside]] = 0.0
+    return out, ids >= 0
+
+
+def apply_texture_roles(cs, mats, uv, kd, ks, shin):
+    """kd, ks, n after the diffuse, label, specular and shininess textures (the surface stage)."""
+    d, has = _role(cs, mats, "diffuse_tex", uv)
+    kd = np.where(has[:, None], kd * d[:, :3], kd)
+    lb, has = _role(cs, mats, "label_tex", uv, label=True)
+    kd = np.where(has[:, None], kd * (1 - lb[:, 3:]) + lb[:, :3], kd)
+    sp, has = _role(cs, mats, "specular_tex", uv)
+    ks = np.where(has[:, None], ks * sp[:, :3], ks)
+    sh, has = _role(cs, mats, "shininess_tex", uv)
+    shin = np.where(has, shin * sh[:, 0], shin)
+    return kd, ks, shin

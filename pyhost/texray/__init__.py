@@ -12,6 +12,7 @@ from .mapping import Projection, UVTransform
 from .render import Image, render
 from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sphere, Texture
 from .transform import Transform
+from .texture import Label
 
 __all__ = ["BuildError", "Camera", "Cylinder", "DeviceError", "DeviceInfo", "Image", "Material", "Mesh",
            "PointLight", "Projection", "Quad", "Scene", "SceneError", "Sphere", "TexrayError", "Texture", "Transform", "UVTransform", "devices",

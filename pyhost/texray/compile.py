@@ -12,8 +12,10 @@ from . import layout
 from .accel import SceneBVH, build_scene_bvh
 from .errors import SceneError
 from .features import Features, max_lights_for, stack_size_for
-from .scene import (Cylinder, Mesh, Quad, Scene, Sphere, _rgb, degenerate_faces, object_frame,
-                    warn_degenerate)
+from .scene import (Cylinder, Mesh, Quad, Scene, Sphere, _normal_role_textures, _rgb, degenerate_faces,
+                    object_frame, warn_degenerate)
+from .texture import FILTERS
+from .texture import pack as _pack_texture_entries
 
 
 @dataclass
@@ -48,19 +50,35 @@ class CompiledScene:
 
 
 class _Materials:
-    """Deduplicated materials and textures, in first-use order."""
+    """Deduplicated materials and texture-table entries, in first-use order. An entry is a
+    (Texture, kind) pair (texray.texture.KINDS): a texture used in roles of two kinds gets
+    two entries. ``texture_filter`` (a texray.texture.FILTERS name) replaces every
+    texture's filter."""
 
-    def __init__(self):
-        self.materials, self.textures, self._mi, self._ti = [], [], {}, {}
+    def __init__(self, texture_filter=None):
+        self.materials, self.entries, self._mi, self._ti, self._tk = [], [], {}, {}, {}
+        self.texture_filter = texture_filter
+
+    @property
+    def textures(self):
+        return [t for t, _ in self.entries]
+
+    def _entry(self, t, kind):
+        key = (id(t), kind)
+        if key not in self._tk:
+            self._tk[key] = len(self.entries)
+            self.entries.append((t if self.texture_filter is None else t.with_options(filter=self.texture_filter),
+                                 kind))
+        return self._tk[key]
 
     def index(self, m):
         if id(m) not in self._mi:
             self._mi[id(m)] = len(self.materials)
             self.materials.append(m)
-            for t in m.textures:
-                if id(t) not in self._ti:
-                    self._ti[id(t)] = len(self.textures)
-                    self.textures.append(t)
+            for _, t, kind in m.texture_roles():
+                self._entry(t, kind)
+            for t in _normal_role_textures(m):      # bump and normal maps: data, looked up by id
+                self._ti[id(t)] = self._entry(t, "data")
         return self._mi[id(m)]
 
     def table(self):
@@ -72,8 +90,18 @@ class _Materials:
             kd, ks, n = m.validate(f"material {i}: ")
             mats[i]["diffuse"], mats[i]["specular"], mats[i]["shininess"] = kd, ks, n
             any_specular |= bool(np.any(ks > 0))
-            if m.textures:
-                mats[i]["diffuse_tex"] = self._ti[id(m.diffuse)]
+            for slot, t, kind in m.texture_roles():
+                mats[i][slot] = self._tk[(id(t), kind)]
+            if m.shininess_map is not None and m.shininess_map.raw.min() < 0:
+                t = m.shininess_map
+                raise SceneError(f"{t.field}: {t.name}: shininess_map values must be >= 0 (n = shininess * map), "
+                                 f"got {float(t.raw.min())}")
+            if m.bump is not None:
+                mats[i]["bump_tex"] = self._ti[id(m.bump.texture)]
+                mats[i]["bump_height"], mats[i]["bump_delta"] = m.bump.height, m.bump.device_delta()
+            if m.normal_map is not None:
+                mats[i]["normal_tex"] = self._ti[id(m.normal_map.texture)]
+                mats[i]["normal_mode"] = m.normal_map.device_mode()
         return mats, any_specular
 
 
@@ -166,14 +194,18 @@ def _quads(items, mats):
     return qv, qs, (p32.min(axis=1), p32.max(axis=1))
 
 
-def compile_scene(scene: Scene, shadows: bool = True) -> CompiledScene:
-    """Flatten ``scene``; raises SceneError for anything that cannot be rendered."""
+def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> CompiledScene:
+    """Flatten ``scene``; raises SceneError for anything that cannot be rendered.
+    ``texture_filter``: None, or a filter name that replaces every texture's own."""
     if not isinstance(scene, Scene):
         raise SceneError(f"render: expected a texray.Scene, got {type(scene).__name__}")
+    if texture_filter is not None and (not isinstance(texture_filter, str) or texture_filter not in FILTERS):
+        raise SceneError(f"render: texture_filter: expected None or one of {', '.join(FILTERS)}, "
+                         f"got {texture_filter!r}")
     by_kind = {Mesh: [], Sphere: [], Cylinder: [], Quad: []}
     for obj_id, obj in enumerate(scene.objects):
         by_kind[type(obj)].append((obj_id, obj))
-    mats = _Materials()
+    mats = _Materials(texture_filter)
     meshes = by_kind[Mesh]
     any_normals = any(m.normals is not None for _, m in meshes)
     any_uvs = any(m.uvs is not None and m.material.textures for _, m in meshes)
@@ -195,15 +227,22 @@ def compile_scene(scene: Scene, shadows: bool = True) -> CompiledScene:
         quad_verts, quad_shade = quad_verts[order[layout.PRIM_QUAD]], quad_shade[order[layout.PRIM_QUAD]]
 
     materials, any_specular = mats.table()
-    tex_table, texels = _pack_textures(mats.textures)
-    objects = _object_table(scene.objects)
+    tex_table, texels = _pack_textures(mats.entries)
+    filters = {t.filter for t, _ in mats.entries}
+    slots = {slot for m in mats.materials for slot, _, _ in m.texture_roles()}
+    objects = object_table(scene.objects)
     lights = np.zeros(len(scene.lights), layout.POINT_LIGHT)
     for i, light in enumerate(scene.lights):
         lights[i]["position"], lights[i]["intensity"] = light.validate(f"lights[{i}].")
     features = Features(textures=bool(mats.textures), vertex_normals=any_normals, specular=any_specular,
                         shadows=shadows and bool(scene.lights),
                         spheres=len(spheres) > 0, cylinders=len(cylinders) > 0, quads=len(quad_verts) > 0,
-                        projections=objects is not None,
+                        projections=any(o.mapping is not None for o in scene.objects),
+                        filter_nearest="nearest" in filters, filter_bilinear="bilinear" in filters,
+                        filter_trilinear="trilinear" in filters, specular_maps="specular_tex" in slots,
+                        shininess_maps="shininess_tex" in slots, labels="label_tex" in slots,
+                        bump=any(m.bump is not None for m in mats.materials),
+                        normal_maps=any(m.normal_map is not None for m in mats.materials),
                         stack_size=stack_size_for(tree.depth), max_lights=max_lights_for(len(scene.lights)))
     return CompiledScene(
         tri_verts=tri_verts, tri_shade=tri_shade, spheres=spheres, cylinders=cylinders,
@@ -220,41 +259,32 @@ def triangle_bounds(tri_verts):
     return np.minimum(np.minimum(p0, p1), p2), np.maximum(np.maximum(p0, p1), p2)
 
 
-def _object_table(objs):
-    """layout.OBJECT per scene object, or None when no object has a projection mapping."""
-    if not any(o.mapping is not None for o in objs):
+def object_table(objs, always=False):
+    """layout.OBJECT per scene object, or None when no object has a projection mapping
+    (unless ``always``: a program compiled with projections reads the table)."""
+    if not always and not any(o.mapping is not None or _object_space_normals(o) for o in objs):
         return None
-    table = np.zeros(len(objs), layout.OBJECT)
+    table = np.zeros(max(len(objs), 1), layout.OBJECT)
     table["mapping"] = -1
     for i, o in enumerate(objs):
         if o.mapping is not None:
             f = object_frame(o)
             table[i]["mapping"] = o.mapping.kind_id
             table[i]["origin"], table[i]["x"], table[i]["y"], table[i]["z"] = f
+        m = np.eye(4) if o.transform is None else o.transform.matrix()
+        table[i]["nm0"], table[i]["nm1"], table[i]["nm2"] = np.linalg.inv(m[:3, :3]).T
     return table
 
 
-def _pack_textures(textures):
-    """One texture table and one shared half-float RGBA texel buffer, or (None, None).
-    Textures sharing pixels (Texture.with_options) share texels."""
-    if not textures:
+def _object_space_normals(obj):
+    nm = obj.material.normal_map
+    return nm is not None and nm.space == "object"
+
+
+def _pack_textures(entries):
+    """One texture table and one shared half-float RGBA texel buffer, or (None, None), for
+    (Texture, kind) entries (texray.texture.pack: each distinct pixels-and-kind packed once,
+    with MIP levels for trilinear textures)."""
+    if not entries:
         return None, None
-    from .mapping import WRAP_MODES, UVTransform
-    images, image_index = [], {}
-    for t in textures:
-        if id(t.rgba) not in image_index:
-            image_index[id(t.rgba)] = len(images)
-            images.append(t.rgba)
-    sizes = np.array([im.shape[0] * im.shape[1] for im in images], dtype=np.int64)
-    offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-    if sizes.sum() >= 2**32:
-        raise SceneError(f"textures: {sizes.sum()} texels in all exceeds the 2^32 texel limit")
-    table = np.zeros(len(textures), layout.TEXTURE)
-    for i, t in enumerate(textures):
-        table[i]["offset"] = offsets[image_index[id(t.rgba)]]
-        table[i]["height"], table[i]["width"] = t.rgba.shape[:2]
-        table[i]["wrap"] = WRAP_MODES[t.wrap]
-        table[i]["m0"], table[i]["m1"] = (t.uv_transform or UVTransform()).device_args()
-    # Half floats top out at 65504: clamp so that bright HDR texels stay finite.
-    texels = np.clip(np.concatenate([im.reshape(-1, 4) for im in images]), -65504, 65504)
-    return table, texels.astype(np.float16).ravel()
+    return _pack_texture_entries(entries)

@@ -17,6 +17,12 @@ class Features:
     quads: bool = False
     projections: bool = False      # some object generates its uv by a projection mapping
     aovs: bool = False             # the surface stage writes AOVs
+    filter_nearest: bool = False   # some texture filters nearest / bilinear / trilinear (texray.texture.FILTERS);
+    filter_bilinear: bool = False  # trilinear also computes ray differentials in the surface stage
+    filter_trilinear: bool = False
+    specular_maps: bool = False    # some material's ks is a texture
+    shininess_maps: bool = False   # some material has a shininess_map
+    labels: bool = False           # some material has a label
     bump: bool = False             # some material has a bump map (kernels/bump.h)
     normal_maps: bool = False      # some material has a normal map (kernels/bump.h)
     stack_size: int = 64           # BVH traversal stack; >= the tree's depth
@@ -79,4 +85,10 @@ def compile_options(f: Features) -> dict[str, int]:
         "TX_NORMAL_MAPS": int(f.normal_maps),
         "TX_STACK_SIZE": int(f.stack_size),
         "TX_MAX_LIGHTS": int(f.max_lights),
+        "TX_FILTER_NEAREST": int(f.filter_nearest),
+        "TX_FILTER_BILINEAR": int(f.filter_bilinear),
+        "TX_FILTER_TRILINEAR": int(f.filter_trilinear),
+        "TX_SPECULAR_MAPS": int(f.specular_maps),
+        "TX_SHININESS_MAPS": int(f.shininess_maps),
+        "TX_LABELS": int(f.labels),
     }

@@ -116,16 +116,20 @@ BUMP_DELTA_TEXEL = 0.0
 BUMP_DELTA_ANALYTIC = -1.0
 
 # --- Texture table entry: 48 bytes ------------------------------------------
-# Texels are RGBA half floats, linear, row 0 = the file's top row; a texture
-# occupies width*height texels starting at texel ``offset`` of the shared
-# buffer. ``wrap``: kernels/wrap.h TX_WRAP_*. The lookup coordinates are
+# Texels are RGBA half floats, linear (texray.texture: decoded per role), row 0 =
+# the file's top row. A texture's ``levels`` MIP levels (1 = level 0 only) lie
+# contiguously from texel ``offset`` of the shared buffer: level l is
+# max(1, width >> l) x max(1, height >> l) texels and starts after the levels
+# before it (kernels/texture.h texture_level). ``wrap``: kernels/wrap.h
+# TX_WRAP_*; ``filter``: FILTER_* below. The lookup coordinates are
 # (u', v') = (m0[0] u + m0[1] v + m1[0], m0[2] u + m0[3] v + m1[1]): the
 # texture's UV transform (texray.mapping.UVTransform).
 TEXTURE = np.dtype([
     ("offset", "<u4"), ("width", "<u4"), ("height", "<u4"), ("wrap", "<u4"),
     ("m0", "<f4", (4,)),
-    ("m1", "<f4", (2,)), ("pad0", "<f4"), ("pad1", "<f4"),
+    ("m1", "<f4", (2,)), ("levels", "<u4"), ("filter", "<u4"),
 ])
+FILTER_NEAREST, FILTER_BILINEAR, FILTER_TRILINEAR = 0, 1, 2     # texray.texture.FILTERS
 
 # --- Per-object data: 128 bytes -----------------------------------------------
 # mapping: -1 = the primitive's own uv, else kernels/mapping.h TX_MAP_* with
@@ -136,14 +140,14 @@ OBJECT = np.dtype([
     ("x", "<f4", (3,)), ("pad4", "<f4"),
     ("y", "<f4", (3,)), ("pad5", "<f4"),
     ("z", "<f4", (3,)), ("pad6", "<f4"),
-])
-
-# --- Point light: 32 bytes --------------------------------------------------
-POINT_LIGHT = np.dtype([
     # rows of the object's normal matrix (inverse transpose of its transform): object-space normal maps
     ("nm0", "<f4", (3,)), ("pad7", "<f4"),
     ("nm1", "<f4", (3,)), ("pad8", "<f4"),
     ("nm2", "<f4", (3,)), ("pad9", "<f4"),
+])
+
+# --- Point light: 32 bytes --------------------------------------------------
+POINT_LIGHT = np.dtype([
     ("position", "<f4", (3,)), ("pad0", "<f4"),
     ("intensity", "<f4", (3,)), ("pad1", "<f4"),
 ])
@@ -199,6 +203,7 @@ CONSTANTS = {
     "AOV_FLOATS": AOV_FLOATS, **{f"AOV_{k.upper()}": v[0] for k, v in AOVS.items()},
     "TRI_HAS_NORMALS": TRI_HAS_NORMALS,
     "TRI_HAS_UVS": TRI_HAS_UVS,
+    "FILTER_NEAREST": FILTER_NEAREST, "FILTER_BILINEAR": FILTER_BILINEAR, "FILTER_TRILINEAR": FILTER_TRILINEAR,
     "TX_NORMAL_DIRECTX": TX_NORMAL_DIRECTX, "TX_NORMAL_OBJECT": TX_NORMAL_OBJECT,
 }
 

@@ -20,6 +20,7 @@ from .compile import CompiledScene, compile_scene, object_table
 from .device import runtime
 from .errors import DeviceError, SceneError
 from .features import Features, compile_options
+from .texture import check_device_limits
 
 STAGES = ("raygen", "intersect", "surface", "shadow", "shade")
 # Bytes per in-flight ray besides the shadow bytes: Ray + Hit + Surface + accumulator.
@@ -77,7 +78,7 @@ class _Uploaded:
 
 def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=True, shadows=True,
            aovs=(), specialize=True, local_size=None, memory_limit=None, tile_pixels=None, progress=None,
-           sink=None, compiled=None) -> Image:
+           sink=None, compiled=None, texture_filter=None) -> Image:
     """Render ``scene`` to a linear RGB image.
 
     spp: samples per pixel (correlated multi-jittered within the pixel, box
@@ -105,6 +106,9 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     compiled: the result of :func:`texray.compile.compile_scene` for this
     scene, to skip compiling it again (the BVH of a big mesh takes seconds);
     it is not modified.
+    texture_filter: None (each texture's own filter) or "nearest", "bilinear" or
+    "trilinear" for every texture (texray.texture.FILTERS); for a precompiled
+    scene pass it to compile_scene instead.
     """
     width, height, spp = _positive_int(width, "width"), _positive_int(height, "height"), _positive_int(spp, "spp")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
@@ -115,7 +119,10 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
             raise SceneError(f"render: aovs: unknown AOV {a!r} (known: {', '.join(layout.AOVS)})")
     t_start = time.perf_counter()
     if compiled is None:
-        cs = compile_scene(scene, shadows=shadows)
+        cs = compile_scene(scene, shadows=shadows, texture_filter=texture_filter)
+    elif texture_filter is not None:
+        raise SceneError(f"render: texture_filter={texture_filter!r} with a precompiled scene: pass it to "
+                         "compile_scene(scene, texture_filter=...) instead")
     elif isinstance(compiled, CompiledScene):
         cs = dataclasses.replace(compiled)
         cs.features = dataclasses.replace(cs.features, shadows=bool(shadows) and len(cs.lights) > 0)
@@ -129,6 +136,9 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
             cs.objects = object_table(scene.objects, always=True)
     t_compiled = time.perf_counter()
     rt = runtime(device)
+    if cs.texels is not None:
+        check_device_limits(cs.texels.nbytes, sorted({t.name for o in scene.objects for t in o.material.textures}),
+                            rt.device.max_mem_alloc_size)
     prg = rt.program(compile_options(cs.features))
     local = rt.local_size(local_size)
     t_built = time.perf_counter()
@@ -171,7 +181,8 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         events["intersect"].append(k["intersect"](q, gsize, lsize, rays, hits, u32(n), *up.geom))
         events["surface"].append(k["surface"](q, gsize, lsize, rays, hits, surf, u32(n), *up.geom, up.shade,
                                               up.quad_shade, up.normals, up.uvs, up.materials, up.textures,
-                                              up.texels, up.objects, aov))
+                                              up.texels, up.objects, aov, cam_buf, u32(width), u32(height),
+                                              u32(spp)))
 
     for y0 in range(0, height, rows):
         tile_rows = min(rows, height - y0)

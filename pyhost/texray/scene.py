@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .colour import srgb_to_linear
 from .errors import SceneError
+from .texture import Label, Texture
 from .transform import Transform, _vec3, apply_normals, apply_points
 
 
@@ -71,102 +71,84 @@ class PointLight:
         return _vec3(self.position, "position", where), _rgb(self.intensity, "intensity", where)
 
 
-class Texture:
-    """An image used by a material, stored linear float32 RGBA (H, W, 4), row 0 = top.
-
-    ``colorspace``: ``"srgb"`` decodes 8-bit-style display values to linear
-    (colour roles), ``"linear"`` keeps the values (data roles), ``"auto"``
-    decodes unless the file says it is linear (EXR, HDR, float TIFF).
-    ``wrap``: "repeat", "clamp" or "mirror" outside [0, 1]. ``uv_transform``: a
-    :class:`texray.mapping.UVTransform` applied to the lookup coordinates.
-    :meth:`with_options` makes a texture sharing the pixels (uploaded once).
-    """
-
-    def __init__(self, rgba: np.ndarray, name: str = "<array>", wrap="repeat", uv_transform=None):
-        from .mapping import WRAP_MODES, UVTransform
-        self.rgba = rgba
-        self.name = name
-        if wrap not in WRAP_MODES:
-            raise SceneError(f"{name}: wrap: expected one of {', '.join(WRAP_MODES)}, got {wrap!r}")
-        if uv_transform is not None and not isinstance(uv_transform, UVTransform):
-            raise SceneError(f"{name}: uv_transform: expected a texray.UVTransform, got {uv_transform!r}")
-        if uv_transform is not None:
-            uv_transform.validate()
-        self.wrap = wrap
-        self.uv_transform = uv_transform
-
-    def with_options(self, wrap=None, uv_transform=None):
-        """The same pixels with another wrap mode and/or UV transform."""
-        return Texture(self.rgba, self.name, wrap or self.wrap,
-                       uv_transform if uv_transform is not None else self.uv_transform)
-
-    @property
-    def shape(self):
-        return self.rgba.shape[:2]
-
-    @classmethod
-    def load(cls, path, colorspace="auto", field="texture", wrap="repeat", uv_transform=None):
-        from .imageio import read_image
-        pixels, file_cs = read_image(path, field)
-        if colorspace not in ("auto", "srgb", "linear"):
-            raise SceneError(f"{field}.colorspace: expected 'auto', 'srgb' or 'linear', got {colorspace!r}")
-        if colorspace == "auto":
-            linear_file = Path(path).suffix.lower() in (".exr", ".hdr", ".pfm") or "linear" in file_cs.lower()
-            colorspace = "linear" if linear_file else "srgb"
-        return cls.from_array(pixels, colorspace=colorspace, name=str(path), field=field, wrap=wrap,
-                              uv_transform=uv_transform)
-
-    @classmethod
-    def from_array(cls, array, colorspace="linear", name="<array>", field="texture", wrap="repeat",
-                   uv_transform=None):
-        """A texture from (H, W) or (H, W, C) numbers, C in 1..4; row 0 is the top row."""
-        a = np.asarray(array, dtype=np.float32)
-        if a.ndim == 2:
-            a = a[:, :, None]
-        if a.ndim != 3 or a.shape[2] not in (1, 2, 3, 4) or a.shape[0] < 1 or a.shape[1] < 1:
-            raise SceneError(f"{field}: {name}: expected an (H, W) or (H, W, 1..4) image, got shape {np.shape(array)}")
-        if not np.all(np.isfinite(a)):
-            bad = np.argwhere(~np.isfinite(a))[0]
-            raise SceneError(f"{field}: {name}: non-finite texel at row {bad[0]}, column {bad[1]}")
-        c = a.shape[2]
-        rgb = {1: a[:, :, [0, 0, 0]], 2: a[:, :, [0, 0, 0]], 3: a, 4: a[:, :, :3]}[c]
-        alpha = a[:, :, 3:4] if c == 4 else (a[:, :, 1:2] if c == 2 else np.ones_like(a[:, :, :1]))
-        if colorspace == "srgb":
-            rgb = srgb_to_linear(rgb)
-        elif colorspace != "linear":
-            raise SceneError(f"{field}.colorspace: expected 'srgb' or 'linear', got {colorspace!r}")
-        return cls(np.ascontiguousarray(np.concatenate([rgb, alpha], axis=2), dtype=np.float32), name, wrap,
-                   uv_transform)
-
-    def __repr__(self):
-        return f"Texture({self.name!r}, {self.shape[1]}x{self.shape[0]})"
-
-
 @dataclass
 class Material:
     """The lecture's local-illumination constants.
 
-    diffuse: kd, an RGB colour or a :class:`Texture` (looked up bilinearly,
-    repeating); ``tint`` multiplies it. specular: ks, a number or RGB.
-    shininess: the exponent n of (R.V)^n.
+    diffuse: kd, an RGB colour or a :class:`Texture` (colour role); ``tint``
+    multiplies it. specular: ks, a number, RGB or a :class:`Texture` (colour
+    role: ks = its RGB). shininess: the exponent n of (R.V)^n, a number >= 0;
+    shininess_map: an optional one-channel :class:`Texture` (data role, stored
+    values >= 0) that multiplies it per point, n = shininess * map, so an 8/16-bit
+    map in [0, 1] spans exponents 0..shininess. label: a :class:`texray.Label`
+    composited over kd (after the tint): kd = lerp(kd, label.rgb, label.alpha).
+    bump: a :class:`texray.Bump`; normal_map: a :class:`texray.NormalMap` (at most one
+    of the two: each defines the shading normal on its own).
     """
     diffuse: object = (0.8, 0.8, 0.8)
     specular: object = 0.0
     shininess: float = 32.0
     tint: tuple = (1.0, 1.0, 1.0)
+    bump: object = None
+    normal_map: object = None
+    shininess_map: object = None
+    label: object = None
 
     def validate(self, where="material."):
         if isinstance(self.diffuse, Texture):
             kd = _rgb(self.tint, "tint", where)
         else:
             kd = _rgb(self.diffuse, "diffuse", where) * _rgb(self.tint, "tint", where)
-        ks = _rgb(self.specular, "specular", where)
+        ks = np.ones(3) if isinstance(self.specular, Texture) else _rgb(self.specular, "specular", where)
         n = _number(self.shininess, "shininess", where, 0.0)
+        if self.shininess_map is not None and not isinstance(self.shininess_map, Texture):
+            raise SceneError(f"{where}shininess_map: expected a texray.Texture, got {self.shininess_map!r}")
+        if self.shininess_map is not None and self.shininess_map.channels != 1:
+            t = self.shininess_map
+            raise SceneError(f"{where}shininess_map: {t.name} has {t.channels} channels; a shininess map takes "
+                             "1 (grey)")
+        if self.label is not None and not isinstance(self.label, Label):
+            raise SceneError(f"{where}label: expected a texray.Label, got {self.label!r}")
+        _check_normal_roles(self, where)
         return kd, ks, n
+
+    def texture_roles(self):
+        """[(layout.MATERIAL slot, Texture as the device reads it, texture.KINDS kind)] of the
+        colour, specular, shininess and label roles."""
+        roles = []
+        if isinstance(self.diffuse, Texture):
+            roles.append(("diffuse_tex", self.diffuse, "colour"))
+        if isinstance(self.specular, Texture):
+            roles.append(("specular_tex", self.specular, "colour"))
+        if self.shininess_map is not None:
+            roles.append(("shininess_tex", self.shininess_map, "data"))
+        if self.label is not None:
+            roles.append(("label_tex", self.label.device_texture, "label"))
+        return roles
 
     @property
     def textures(self):
-        return [self.diffuse] if isinstance(self.diffuse, Texture) else []
+        return [t for _, t, _ in self.texture_roles()] + _normal_role_textures(self)
+
+
+def _check_normal_roles(m, where):
+    from .bump import Bump, NormalMap
+    if m.bump is not None and not isinstance(m.bump, Bump):
+        raise SceneError(f"{where}bump: expected a texray.Bump, got {m.bump!r}")
+    if m.normal_map is not None and not isinstance(m.normal_map, NormalMap):
+        raise SceneError(f"{where}normal_map: expected a texray.NormalMap, got {m.normal_map!r}")
+    if m.bump is not None and m.normal_map is not None:
+        raise SceneError(f"{where}bump, normal_map: a material takes one of the two (each replaces the "
+                         "shading normal); bake the bump into the normal map")
+    if m.bump is not None:
+        m.bump.validate(f"{where}bump.")
+    if m.normal_map is not None:
+        m.normal_map.validate(f"{where}normal_map.")
+
+
+def _normal_role_textures(m):
+    """The data textures of the bump / normal-map roles."""
+    return [r.texture for r in (m.bump, m.normal_map) if r is not None and hasattr(r, "texture")]
 
 
 @dataclass

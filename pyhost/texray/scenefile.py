@@ -15,8 +15,10 @@ try:
 except ModuleNotFoundError:        # Python < 3.11
     import tomli as tomllib
 
+from .bump import Bump, NormalMap
 from .errors import SceneError
 from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sphere, Texture
+from .texture import Label
 from .mapping import WRAP_MODES, Projection, UVTransform
 from .transform import Transform
 
@@ -29,10 +31,15 @@ _SCHEMA = {
     "scene": {"ambient": _VEC, "background": _VEC},
     "render": {"width": int, "height": int, "spp": int, "seed": int},
     "lights": {"position": _VEC, "intensity": _VEC},
-    "textures": {"file": str, "colorspace": str, "wrap": str, "uv_transform": dict},
+    "textures": {"file": str, "colorspace": str, "wrap": str, "uv_transform": dict, "filter": str,
+                 "procedural": str, "params": dict},
+    "label": {"texture": str, "uv_transform": dict},
+    "bump": {"texture": str, "height": _NUM, "delta": (int, float, str)},
+    "normal_map": {"texture": str, "convention": str, "space": str},
     "uv_transform": {"scale": _VEC, "offset": _VEC, "rotation": _NUM},
     "mapping": {"kind": str, "origin": _VEC, "x_axis": _VEC, "z_axis": _VEC, "scale": _NUM},
-    "materials": {"diffuse": (str, list), "tint": _VEC, "specular": (int, float, list), "shininess": _NUM},
+    "materials": {"diffuse": (str, list), "tint": _VEC, "specular": (int, float, list, str), "shininess": _NUM,
+                  "shininess_map": str, "label": (str, dict), "bump": dict, "normal_map": dict},
     "objects": {"type": str, "material": str, "translate": _VEC, "rotate": _VEC, "scale": (int, float, list),
                 "mapping": dict,
                 "mesh": str,                                                   # type = "mesh"
@@ -41,7 +48,8 @@ _SCHEMA = {
                 "z_range": _VEC, "theta_range": _VEC, "origin": _VEC,          # "cylinder"
                 "p0": _VEC, "p1": _VEC, "p2": _VEC, "p3": _VEC, "uvs": _VEC},  # "quad"
 }
-_REQUIRED = {"lights": ("position",), "textures": ("file",), "mapping": ("kind",)}
+_REQUIRED = {"lights": ("position",), "mapping": ("kind",), "label": ("texture",), "bump": ("texture",),
+             "normal_map": ("texture",)}
 # Keys each object type takes besides type, material and the transform; the first ones are required.
 _OBJECT_KEYS = {
     "mesh": (("mesh",), ()),
@@ -111,20 +119,21 @@ def _build(doc, base, path):
             uvt = _wrap_errors(lambda: UVTransform(**tt["uv_transform"]), f"textures.{name}.")
         if tt.get("wrap", "repeat") not in WRAP_MODES:
             raise SceneError(f"textures.{name}.wrap: expected one of {', '.join(WRAP_MODES)}, got {tt['wrap']!r}")
-        textures[name] = Texture.load(base / tt["file"], colorspace=tt.get("colorspace", "auto"),
-                                      field=f"textures.{name}.file", wrap=tt.get("wrap", "repeat"),
-                                      uv_transform=uvt)
+        textures[name] = _texture(tt, name, base, uvt)
 
     materials = {}
     for name, mt in doc.get("materials", {}).items():
         where = f"materials.{name}"
         _check_table(mt, "materials", where)
         kw = dict(mt)
-        if isinstance(kw.get("diffuse"), str):
-            if kw["diffuse"] not in textures:
-                raise SceneError(f"{where}.diffuse: no texture named {kw['diffuse']!r} "
-                                 f"(defined: {', '.join(textures) or 'none'})")
-            kw["diffuse"] = textures[kw["diffuse"]]
+        for role in ("diffuse", "specular", "shininess_map"):
+            if isinstance(kw.get(role), str):
+                kw[role] = _named_texture(textures, kw[role], f"{where}.{role}")
+        if "label" in kw:
+            kw["label"] = _label(kw["label"], textures, f"{where}.label")
+        for role, make in (("bump", Bump), ("normal_map", NormalMap)):
+            if role in kw:
+                kw[role] = _normal_role(make, kw[role], textures, f"{where}.{role}")
         m = Material(**kw)
         m.validate(where + ".")
         materials[name] = m
@@ -136,6 +145,58 @@ def _build(doc, base, path):
         scene.add(_object(ob, f"objects[{i}]", materials, base))
     scene.render_settings = dict(settings)
     return scene
+
+
+def _texture(tt, name, base, uvt):
+    """textures.NAME: a file or a procedural texture (exactly one of the two)."""
+    where = f"textures.{name}"
+    if ("file" in tt) == ("procedural" in tt):
+        raise SceneError(f"{where}: expected exactly one of 'file' or 'procedural'")
+    if "params" in tt and "procedural" not in tt:
+        raise SceneError(f"{where}.params: only with 'procedural'")
+    opts = {"filter": tt.get("filter", "bilinear"), "wrap": tt.get("wrap", "repeat"), "uv_transform": uvt}
+    if "file" in tt:
+        return Texture.load(base / tt["file"], colorspace=tt.get("colorspace", "auto"), field=f"{where}.file",
+                            **opts)
+    if "colorspace" in tt:
+        raise SceneError(f"{where}.colorspace: procedural textures know their colour space")
+    params = tt.get("params", {})
+    if not all(isinstance(v, (int, float, list)) and not isinstance(v, bool) for v in params.values()):
+        raise SceneError(f"{where}.params: expected numbers or arrays, got {params!r}")
+    params = {k: tuple(v) if isinstance(v, list) else v for k, v in params.items()}
+    return _wrap_errors(lambda: Texture.procedural(tt["procedural"], **opts, **params), f"{where}.")
+
+
+def _normal_role(make, value, textures, where):
+    """A material's bump = { texture = NAME, height, delta } or normal_map = { texture = NAME,
+    convention, space }: texray.Bump / texray.NormalMap."""
+    role = "bump" if make is Bump else "normal_map"
+    _check_table(value, role, where)
+    args = dict(value, texture=_named_texture(textures, value["texture"], f"{where}.texture"))
+    try:
+        return make(**args)
+    except SceneError as e:                  # "bump.height: ..." -> "materials.NAME.bump.height: ..."
+        msg = str(e)
+        raise SceneError(f"{where}.{msg[len(role) + 1:]}" if msg.startswith(role + ".") else f"{where}: {msg}") \
+            from None
+
+
+def _named_texture(textures, name, where):
+    if name not in textures:
+        raise SceneError(f"{where}: no texture named {name!r} (defined: {', '.join(textures) or 'none'})")
+    return textures[name]
+
+
+def _label(value, textures, where):
+    """A material's label: a texture name, or { texture = NAME, uv_transform = {...} }."""
+    if isinstance(value, str):
+        return Label(_named_texture(textures, value, where))
+    _check_table(value, "label", where)
+    uvt = None
+    if "uv_transform" in value:
+        _check_table(value["uv_transform"], "uv_transform", f"{where}.uv_transform")
+        uvt = _wrap_errors(lambda: UVTransform(**value["uv_transform"]), f"{where}.")
+    return Label(_named_texture(textures, value["texture"], f"{where}.texture"), uv_transform=uvt)
 
 
 def _object(ob, where, materials, base):

@@ -1,0 +1,394 @@
+"""Textures: loading, colour spaces per role, MIP pyramids and device packing.
+
+A :class:`Texture` keeps the values as stored (raw, 1-4 channels, float32) and
+the colour space they are encoded in. What the device gets depends on the
+*role* a material gives the texture, known only when a scene is compiled:
+
+* ``"colour"`` (diffuse kd, specular ks): sRGB-encoded values are decoded to
+  linear (IEC 61966-2-1); alpha is kept linear.
+* ``"label"`` (the lecture's texture used as label): decoded like a colour, then
+  premultiplied by alpha, so that filtering the label and compositing it
+  (``kd (1 - a) + rgb``) commute: a filtered premultiplied label is the
+  filtered composite, with no fringes where alpha drops to 0.
+* ``"data"`` (shininess, height, normals): the stored values, never decoded.
+
+A texture used in two roles of different kinds is packed twice; otherwise once,
+also when several :meth:`Texture.with_options` variants share its pixels.
+
+Filters (``filter=``): ``"nearest"`` (the texel the point falls in),
+``"bilinear"`` (the default: the four nearest texels, level 0 only) and
+``"trilinear"`` (bilinear in the two MIP levels around the pixel footprint's
+level of detail, blended; the footprint comes from ray differentials, see
+kernels/texture.h). Only trilinear textures get MIP levels.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .colour import srgb_to_linear
+from .errors import SceneError
+
+FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2}      # layout FILTER_* / TextureInfo.filter
+COLORSPACES = ("auto", "srgb", "linear")
+KINDS = ("colour", "label", "data")
+HALF_MAX = 65504.0            # largest finite half float: texels are stored as halves
+MAX_TEXELS = 2**32            # TextureInfo offsets and texel indices are 32-bit
+
+# Colour-space names (OpenImageIO's oiio:ColorSpace, lower case) read as sRGB or linear.
+_SRGB_NAMES = ("srgb",)
+_LINEAR_NAMES = ("lin", "scene_linear", "acescg", "aces2065", "raw", "data")
+
+
+class Texture:
+    """An image for a material: raw values (H, W, C), C in 1..4, row 0 = the top row.
+
+    ``colorspace``: ``"srgb"`` or ``"linear"``: how the stored values encode
+    colour. Colour roles decode sRGB, data roles (shininess, height, normal
+    maps) use the stored values whatever this says. 1 channel is grey, 2 are
+    grey + alpha, 3 RGB, 4 RGBA; missing alpha is 1.
+    ``filter``: "nearest", "bilinear" (default) or "trilinear" (MIP mapped).
+    ``wrap``: "repeat", "clamp" or "mirror" outside [0, 1]. ``uv_transform``:
+    a :class:`texray.mapping.UVTransform` applied to the lookup coordinates.
+    :meth:`with_options` makes a texture sharing the pixels (uploaded once).
+    """
+
+    def __init__(self, pixels: np.ndarray, name: str = "<array>", colorspace="linear", wrap="repeat",
+                 uv_transform=None, filter="bilinear", field="texture"):
+        from .mapping import WRAP_MODES, UVTransform
+        self.name = name
+        self.field = field
+        if colorspace not in ("srgb", "linear"):
+            raise SceneError(f"{field}.colorspace: {name}: expected 'srgb' or 'linear', got {colorspace!r}")
+        if wrap not in WRAP_MODES:
+            raise SceneError(f"{field}.wrap: {name}: expected one of {', '.join(WRAP_MODES)}, got {wrap!r}")
+        if not isinstance(filter, str) or filter not in FILTERS:
+            raise SceneError(f"{field}.filter: {name}: expected one of {', '.join(FILTERS)}, got {filter!r}")
+        if uv_transform is not None and not isinstance(uv_transform, UVTransform):
+            raise SceneError(f"{field}.uv_transform: {name}: expected a texray.UVTransform, got {uv_transform!r}")
+        if uv_transform is not None:
+            uv_transform.validate()
+        if isinstance(pixels, _Pixels):
+            self._pixels = pixels
+        else:
+            self._pixels = _Pixels(_check_pixels(pixels, name, field), colorspace)
+        self.wrap, self.uv_transform, self.filter = wrap, uv_transform, filter
+
+    # --- construction --------------------------------------------------------
+    @classmethod
+    def load(cls, path, colorspace="auto", filter="bilinear", wrap="repeat", uv_transform=None, field="texture"):
+        """Read PNG, JPEG, TIFF, EXR, HDR (anything OpenImageIO reads; 8/16-bit, half, float;
+        1-4 channels). ``colorspace="auto"`` takes the file's ``oiio:ColorSpace`` (sRGB or
+        linear names), else integer pixels are sRGB and half/float pixels linear. An
+        unreadable, truncated or empty file, an unknown colour space or non-finite texels
+        raise SceneError naming the file."""
+        if colorspace not in COLORSPACES:
+            raise SceneError(f"{field}.colorspace: expected one of {', '.join(COLORSPACES)}, got {colorspace!r}")
+        pixels, file_cs, is_float = _read(path, field)
+        if colorspace == "auto":
+            colorspace = _auto_colorspace(file_cs, is_float, path, field)
+        return cls(pixels, str(path), colorspace, wrap, uv_transform, filter, field)
+
+    @classmethod
+    def from_array(cls, array, colorspace="linear", name="<array>", field="texture", wrap="repeat",
+                   uv_transform=None, filter="bilinear"):
+        """A texture from (H, W) or (H, W, C) numbers, C in 1..4; row 0 is the top row.
+        ``colorspace``: how the numbers encode colour ("linear" or "srgb")."""
+        return cls(array, name, colorspace, wrap, uv_transform, filter, field)
+
+    @classmethod
+    def procedural(cls, kind, filter="bilinear", wrap="repeat", uv_transform=None, **params):
+        """A texture from :mod:`texray.procedural`: ``kind`` is one of :data:`PROCEDURAL`
+        ("checker", "bricks", "bricks_height", "noise", "wood", "marble", "tiles", "globe",
+        "label"); ``params`` go to the generator (``size``, ``seed``...). Colours are
+        sRGB-encoded display values, heights and noise linear data."""
+        if kind not in PROCEDURAL:
+            raise SceneError(f"texture.procedural: expected one of {', '.join(PROCEDURAL)}, got {kind!r}")
+        make, colorspace = PROCEDURAL[kind]
+        try:
+            pixels = make(**params)
+        except TypeError as e:
+            raise SceneError(f"texture.procedural: {kind}: {e}") from None
+        return cls(pixels, f"<{kind}>", colorspace, wrap, uv_transform, filter)
+
+    def with_options(self, wrap=None, uv_transform=None, filter=None):
+        """The same pixels (uploaded once) with another wrap mode, UV transform and/or filter."""
+        return Texture(self._pixels, self.name, self.colorspace, wrap or self.wrap,
+                       uv_transform if uv_transform is not None else self.uv_transform,
+                       filter or self.filter, self.field)
+
+    # --- what the pixels are -------------------------------------------------
+    @property
+    def colorspace(self) -> str:
+        return self._pixels.colorspace
+
+    @property
+    def raw(self) -> np.ndarray:
+        """The stored values, float32 (H, W, C)."""
+        return self._pixels.raw
+
+    @property
+    def channels(self) -> int:
+        return self._pixels.raw.shape[2]
+
+    @property
+    def shape(self):
+        return self._pixels.raw.shape[:2]
+
+    @property
+    def rgba(self) -> np.ndarray:
+        """Level 0 as a colour role sees it: linear float32 RGBA (H, W, 4)."""
+        return self._pixels.rgba("colour")
+
+    def levels(self, kind="colour", mip=True) -> list[np.ndarray]:
+        """The MIP pyramid (level 0 first) of this texture in role ``kind`` (see :data:`KINDS`),
+        float32 (h, w, 4) arrays; only level 0 when ``mip`` is False."""
+        return self._pixels.levels(kind) if mip else [self._pixels.rgba(kind)]
+
+    def __repr__(self):
+        return f"Texture({self.name!r}, {self.shape[1]}x{self.shape[0]}x{self.channels}, {self.filter})"
+
+
+class _Pixels:
+    """Raw pixels shared by the variants of one texture, with the role kinds and MIP
+    pyramids made from them on first use."""
+
+    def __init__(self, raw, colorspace):
+        self.raw, self.colorspace = raw, colorspace
+        self._rgba, self._levels = {}, {}
+
+    def rgba(self, kind):
+        if kind not in self._rgba:
+            self._rgba[kind] = role_rgba(self.raw, self.colorspace, kind)
+        return self._rgba[kind]
+
+    def levels(self, kind):
+        if kind not in self._levels:
+            self._levels[kind] = mip_pyramid(self.rgba(kind))
+        return self._levels[kind]
+
+
+def _check_pixels(array, name, field):
+    try:
+        a = np.asarray(array, dtype=np.float32)
+    except (TypeError, ValueError):
+        raise SceneError(f"{field}: {name}: expected an array of numbers, got {type(array).__name__}") from None
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3 or a.shape[2] not in (1, 2, 3, 4) or a.shape[0] < 1 or a.shape[1] < 1:
+        raise SceneError(f"{field}: {name}: expected an (H, W) or (H, W, 1..4) image, got shape {np.shape(array)}")
+    if not np.all(np.isfinite(a)):
+        bad = np.argwhere(~np.isfinite(a))[0]
+        raise SceneError(f"{field}: {name}: non-finite texel {a[tuple(bad)]} at row {bad[0]}, column {bad[1]}, "
+                         f"channel {bad[2]}")
+    return np.ascontiguousarray(a)
+
+
+def role_rgba(raw, colorspace, kind):
+    """Linear float32 RGBA (H, W, 4) of raw (H, W, C) values for a role ``kind``
+    ("colour", "label" or "data"; see the module docstring)."""
+    c = raw.shape[2]
+    rgb = raw[:, :, [0, 0, 0]] if c < 3 else raw[:, :, :3]
+    alpha = raw[:, :, 3:4] if c == 4 else (raw[:, :, 1:2] if c == 2 else np.ones_like(raw[:, :, :1]))
+    if kind != "data" and colorspace == "srgb":
+        rgb = srgb_to_linear(rgb)
+    if kind == "label":
+        alpha = np.clip(alpha, 0.0, 1.0)
+        rgb = rgb * alpha
+    elif kind not in KINDS:
+        raise ValueError(f"unknown texture kind {kind!r}")
+    return np.ascontiguousarray(np.concatenate([rgb, alpha], axis=2), dtype=np.float32)
+
+
+def _halve(a, axis):
+    """One MIP step along ``axis``: n texels -> max(1, floor(n / 2)), each output texel the
+    exact box-filter average (area coverage) of the input texels under it.
+
+    Even n: output i averages inputs 2i and 2i+1. Odd n = 2m + 1 (the non-power-of-two
+    case): output i covers (2m+1)/m inputs starting at i (2m+1)/m, i.e. a polyphase 3-tap
+    filter over inputs 2i, 2i+1, 2i+2 with weights (m - i, m, i + 1) / (2m + 1)
+    (Nvidia, "Non-power-of-two mipmap creation", 2005). n = 1 stays."""
+    n = a.shape[axis]
+    if n == 1:
+        return a
+    a = np.moveaxis(a, axis, 0)
+    m = n // 2
+    if n % 2 == 0:
+        out = 0.5 * (a[0::2] + a[1::2])
+    else:
+        i = np.arange(m, dtype=np.float64).reshape((m,) + (1,) * (a.ndim - 1))
+        out = ((m - i) * a[0:2 * m:2] + m * a[1::2] + (i + 1) * a[2::2]) / n
+    return np.moveaxis(out, 0, axis)
+
+
+def mip_pyramid(level0) -> list[np.ndarray]:
+    """Every MIP level of a (H, W, C) image, level 0 first, down to 1x1.
+
+    Level l is (max(1, H >> l), max(1, W >> l)): each step floors n / 2, and odd
+    sizes use the exact area-weighted 3-tap filter of :func:`_halve`, so every level
+    is the box filter of level 0 over its texels' footprints (separable, in the
+    values' own space: linear for every role). Computed in float64, returned float32.
+    floor(log2(max(H, W))) + 1 levels."""
+    levels = [np.asarray(level0, dtype=np.float32)]
+    cur = np.asarray(level0, dtype=np.float64)
+    while cur.shape[0] > 1 or cur.shape[1] > 1:
+        cur = _halve(_halve(cur, 0), 1)
+        levels.append(cur.astype(np.float32))
+    return levels
+
+
+def level_sizes(height, width):
+    """[(h, w)] of every MIP level (as :func:`mip_pyramid` makes them)."""
+    out = [(height, width)]
+    while out[-1] != (1, 1):
+        h, w = out[-1]
+        out.append((max(1, h >> 1), max(1, w >> 1)))
+    return out
+
+
+# --- files -------------------------------------------------------------------
+def _read(path, field):
+    """(raw float32 (H, W, C) with straight alpha, the file's colour-space name, whether the
+    pixels are half/float)."""
+    import OpenImageIO as oiio
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError(f"{field}: file not found: {path}")
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)       # the file's own colour values, not premultiplied
+    inp = oiio.ImageInput.open(str(path), config)
+    if inp is None:
+        raise SceneError(f"{field}: cannot read image {path} (corrupt, truncated or not an image): "
+                         f"{_first_line(oiio.geterror()) or 'unknown format'}")
+    try:
+        spec = inp.spec()
+        if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
+            raise SceneError(f"{field}: image {path} has no pixels ({spec.width}x{spec.height}x{spec.nchannels})")
+        if spec.nchannels > 4:
+            raise SceneError(f"{field}: {path} has {spec.nchannels} channels; textures take 1 to 4")
+        pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
+        if pixels is None or inp.has_error:
+            raise SceneError(f"{field}: cannot decode image {path} (corrupt or truncated): "
+                             f"{_first_line(inp.geterror()) or 'read failed'}")
+        colorspace = spec.get_string_attribute("oiio:ColorSpace", "")
+        is_float = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
+        associated = spec.alpha_channel >= 0 and not spec.get_int_attribute("oiio:UnassociatedAlpha", 0)
+    finally:
+        inp.close()
+    pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+    if not np.all(np.isfinite(pixels)):
+        bad = np.argwhere(~np.isfinite(pixels))[0]
+        raise SceneError(f"{field}: {path}: non-finite texel {pixels[tuple(bad)]} at row {bad[0]}, "
+                         f"column {bad[1]}, channel {bad[2]}")
+    if associated:
+        # EXR (and any file whose alpha OIIO reports associated) stores colour premultiplied:
+        # divide it out so that every texture holds straight alpha; a = 0 keeps colour 0.
+        a = pixels[:, :, spec.alpha_channel:spec.alpha_channel + 1]
+        colour = [c for c in range(spec.nchannels) if c != spec.alpha_channel]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pixels[:, :, colour] = np.where(a > 0, pixels[:, :, colour] / a, 0.0)
+    return pixels, colorspace, is_float
+
+
+def _first_line(msg):
+    return (msg or "").strip().splitlines()[0] if (msg or "").strip() else ""
+
+
+def _auto_colorspace(name, is_float, path, field):
+    n = name.lower()
+    if not n:
+        return "linear" if is_float else "srgb"
+    if any(k in n for k in _SRGB_NAMES):
+        return "srgb"
+    if any(k in n for k in _LINEAR_NAMES):
+        return "linear"
+    raise SceneError(f"{field}.colorspace: {path} is tagged with colour space {name!r}, neither sRGB nor "
+                     "linear: pass colorspace='srgb' or 'linear'")
+
+
+# --- procedural ----------------------------------------------------------------
+def _procedural():
+    from . import procedural as p
+    return {
+        "checker": (p.checker, "srgb"), "bricks": (p.bricks, "srgb"), "bricks_height": (p.bricks_height, "linear"),
+        "noise": (p.value_noise, "linear"), "wood": (p.wood, "srgb"), "marble": (p.marble, "srgb"),
+        "tiles": (p.tiles, "srgb"), "globe": (p.globe, "srgb"), "label": (p.label, "srgb"),
+    }
+
+
+PROCEDURAL = _procedural()
+
+
+# --- device packing --------------------------------------------------------------
+def pack(entries):
+    """One texture table and one shared texel buffer for ``entries`` = [(Texture, kind)],
+    in table order; ``(layout.TEXTURE array, float16 texels (T*4,))``.
+
+    Each distinct (pixels, kind) is packed once, with its MIP levels when some entry using
+    it filters trilinearly (its other entries read level 0). Levels are contiguous: level l
+    starts ``sum_{k<l} w_k h_k`` texels after the entry's ``offset`` (kernels/texture.h
+    computes this from width and height). Raises SceneError when the texels exceed the
+    32-bit texel offsets."""
+    from . import layout
+    from .mapping import WRAP_MODES, UVTransform
+    keys, mip = [], {}
+    for t, kind in entries:
+        key = (id(t._pixels), kind)
+        if key not in mip:
+            keys.append((key, t, kind))
+            mip[key] = False
+        mip[key] |= t.filter == "trilinear"
+    blocks, offsets, nlevels, total = [], {}, {}, 0
+    for key, t, kind in keys:
+        levels = t.levels(kind, mip=mip[key])
+        offsets[key], nlevels[key] = total, len(levels)
+        total += sum(lv.shape[0] * lv.shape[1] for lv in levels)
+        if total >= MAX_TEXELS:
+            raise SceneError(f"{t.field}: {t.name}: the scene's textures need {total} texels or more, beyond the "
+                             f"{MAX_TEXELS} that 32-bit texel offsets address")
+        blocks.extend(lv.reshape(-1, 4) for lv in levels)
+    table = np.zeros(len(entries), layout.TEXTURE)
+    for i, (t, kind) in enumerate(entries):
+        key = (id(t._pixels), kind)
+        table[i]["offset"] = offsets[key]
+        table[i]["height"], table[i]["width"] = t.shape
+        table[i]["wrap"] = WRAP_MODES[t.wrap]
+        table[i]["filter"] = FILTERS[t.filter]
+        table[i]["levels"] = nlevels[key] if t.filter == "trilinear" else 1
+        table[i]["m0"], table[i]["m1"] = (t.uv_transform or UVTransform()).device_args()
+    # Half floats top out at 65504: clamp so that bright HDR texels stay finite.
+    texels = np.clip(np.concatenate(blocks), -HALF_MAX, HALF_MAX).astype(np.float16).ravel()
+    return table, texels
+
+
+def check_device_limits(texel_bytes, names, max_alloc, where="textures"):
+    """SceneError when the texel buffer (``texel_bytes``) is larger than the device's largest
+    buffer (``max_alloc``, CL_DEVICE_MAX_MEM_ALLOC_SIZE). ``names``: the textures, for the message."""
+    if texel_bytes > max_alloc:
+        raise SceneError(f"{where}: {', '.join(names)}: {texel_bytes} bytes of texels (MIP levels included) exceed "
+                         f"the device's largest buffer, {max_alloc} bytes (CL_DEVICE_MAX_MEM_ALLOC_SIZE); use "
+                         "smaller images or filter='bilinear'")
+
+
+class Label:
+    """The lecture's texture used as a label: composited over the material's diffuse colour,
+    ``kd = lerp(kd, label.rgb, label.alpha)``, where its (transformed) coordinates fall in
+    [0, 1]^2, and absent elsewhere (it appears once: no repeat, no clamp-to-edge streaks).
+
+    ``uv_transform`` (a :class:`texray.UVTransform`) places it, replacing the texture's
+    own; e.g. ``UVTransform(scale=(4, 4), offset=(-1.5, -1.5))`` shows it on the uv square
+    [0.375, 0.625]^2. Textures without alpha are opaque labels."""
+
+    def __init__(self, texture, uv_transform=None):
+        from .mapping import UVTransform
+        if not isinstance(texture, Texture):
+            raise SceneError(f"label.texture: expected a texray.Texture, got {texture!r}")
+        if uv_transform is not None and not isinstance(uv_transform, UVTransform):
+            raise SceneError(f"label.uv_transform: expected a texray.UVTransform, got {uv_transform!r}")
+        self.texture, self.uv_transform = texture, uv_transform
+        # Clamped lookups: the bilinear taps at the label's border never wrap to the other side.
+        self.device_texture = texture.with_options(wrap="clamp", uv_transform=uv_transform)
+
+    def __repr__(self):
+        return f"Label({self.texture!r}, uv_transform={self.uv_transform!r})"
