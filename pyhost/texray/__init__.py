@@ -6,15 +6,16 @@
     scene.add(tx.Mesh.load("scenes/meshes/vase.obj", material=tx.Material(diffuse=(0.8, 0.2, 0.2))))
     tx.render(scene, width=640, height=480, spp=4).save("out.png")
 """
+from .bump import Bump, NormalMap
 from .device import DeviceInfo, devices
 from .errors import BuildError, DeviceError, SceneError, TexrayError
 from .mapping import Projection, UVTransform
 from .render import Image, render
 from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sphere, Texture
-from .transform import Transform
 from .texture import Label
+from .transform import Transform
 
-__all__ = ["BuildError", "Camera", "Cylinder", "DeviceError", "DeviceInfo", "Image", "Material", "Mesh",
+__all__ = ["Bump", "NormalMap", "BuildError", "Camera", "Cylinder", "DeviceError", "DeviceInfo", "Image", "Label", "Material", "Mesh",
            "PointLight", "Projection", "Quad", "Scene", "SceneError", "Sphere", "TexrayError", "Texture", "Transform", "UVTransform", "devices",
            "render"]
 __version__ = "0.1.0"
