@@ -216,7 +216,7 @@ def main(argv=None):
                                 "frame_s": local_size_sweep(sc, cs, dev, w, h, 4, args.repeat, sizes)}
         if args.peers:
             from .bench_peers import bench_peers
-            peer_scenes = [p for n, p in suite_paths(["globe", "grazing_quad"]).items()]
+            peer_scenes = list(suite_paths(["globe", "grazing_quad", "brick_wall"]).values())
             peer_scenes.append(scenes_dir() / "showcase.toml")
             r["peers"] = bench_peers(dev, args.repeat, args.triangles, args.rays or 1024, peer_scenes)
         print_device(dname, r, out)

@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 # The suite, in the order it runs. Each is scenes/bench/<name>.toml.
-SUITE = ("mesh1m", "globe", "grazing_quad", "mixed")
+SUITE = ("mesh1m", "globe", "grazing_quad", "mixed", "brick_wall", "bump_globe")
 
 
 def median_spread(values):

@@ -2,8 +2,9 @@
 frame time against the error from a reference image of the same scene.
 
 The reference is the same scene at many samples per pixel (``ref_spp``,
-default 256) with bilinear texture lookups: the pixel's box-filtered
-integral of the surface, to which every setting converges. Its own Monte
+default 256) with bilinear texture lookups and the exact (analytic) bump
+gradient: the pixel's box-filtered integral of the surface, to which every
+setting converges. Its own Monte
 Carlo noise is about 1/sqrt(ref_spp / spp) of a swept setting's, so errors
 below ~1/4 of the 16-spp error are not resolved (the table says the ref spp).
 
@@ -22,6 +23,10 @@ from .bench_suite import median_spread
 SPP_VALUES = (1, 2, 4, 8, 16, 32, 64)
 FILTER_SPP = (1, 4, 16)
 FILTERS = ("nearest", "bilinear", "trilinear")
+# Bump steps, in texels of the height texture ("analytic": the exact gradient of the
+# bilinear interpolant, which the reference uses), each at BUMP_SPP samples.
+BUMP_DELTAS = ("analytic", 0.5, 1, 2, 4, 8)
+BUMP_SPP = (1, 4, 16)
 
 
 def error_metrics(img, ref):
@@ -39,12 +44,44 @@ def _supports(name):
     return name in inspect.signature(render).parameters
 
 
-def series_for(compiled, spp_values=SPP_VALUES, filter_spp=FILTER_SPP):
-    """The sweep's series for a compiled scene: [(series name, [(label, render kwargs)])]."""
+def _bumps(scene):
+    return [o.material.bump for o in scene.objects if getattr(o.material, "bump", None) is not None]
+
+
+def with_bump_delta(scene, texels):
+    """A copy of ``scene`` whose bump maps all use the step ``texels`` (texels of each height
+    texture, or "analytic"); the scene itself is not changed."""
+    import copy
+    import dataclasses
+    from .bump import Bump
+    out = copy.copy(scene)
+    out.objects = []
+    cache = {}
+    for o in scene.objects:
+        b = getattr(o.material, "bump", None)
+        if b is not None:
+            if id(o.material) not in cache:
+                h, w = b.texture.shape
+                delta = "analytic" if texels == "analytic" else min(0.5, texels / max(h, w))
+                nb = Bump(b.texture, height=b.height, delta=delta)
+                cache[id(o.material)] = dataclasses.replace(o.material, bump=nb)
+            o = copy.copy(o)
+            o.material = cache[id(o.material)]
+        out.objects.append(o)
+    return out
+
+
+def series_for(scene, compiled, spp_values=SPP_VALUES, filter_spp=FILTER_SPP):
+    """The sweep's series for a scene: [(series name, [(label, render kwargs)])]; the kwarg
+    ``bump_texels`` is applied to the scene (with_bump_delta), the others go to render()."""
     out = [("spp", [(f"{s} spp", {"spp": s}) for s in spp_values])]
     if compiled.textures is not None and _supports("texture_filter"):
         for f in FILTERS:
             out.append((f"filter={f}", [(f"{f} {s} spp", {"spp": s, "texture_filter": f}) for s in filter_spp]))
+    if _bumps(scene):
+        for d in BUMP_DELTAS:
+            name = "bump delta=analytic" if d == "analytic" else f"bump delta={d} texel"
+            out.append((name, [(f"delta {d} {s} spp", {"spp": s, "bump_texels": d}) for s in BUMP_SPP]))
     return out
 
 
@@ -53,21 +90,25 @@ def sweep_scene(scene, compiled, device, width, height, repeat, ref_spp=256, spp
     """{"reference": ..., "series": {name: [point]}}, point = label, settings, time, errors."""
     from .render import render
     ref_kw = {"texture_filter": "bilinear"} if compiled.textures is not None and _supports("texture_filter") else {}
-    ref = render(scene, width, height, ref_spp, device=device, seed=12345, **ref_kw)
+    ref_scene = with_bump_delta(scene, "analytic") if _bumps(scene) else scene
+    ref = render(ref_scene, width, height, ref_spp, device=device, seed=12345, **ref_kw)
+    if _bumps(scene):
+        ref_kw = dict(ref_kw, bump="analytic")
     result = {"width": width, "height": height, "ref_spp": ref_spp, "reference_s": ref.stats["render_s"],
               "reference_settings": ref_kw, "series": {}}
-    for name, points in series_for(compiled, spp_values, filter_spp):
+    for name, points in series_for(scene, compiled, spp_values, filter_spp):
         rows = []
         for label, kw in points:
-            kw = dict(kw)
+            setting, kw = dict(kw), dict(kw)
             spp = kw.pop("spp")
-            render(scene, width, height, spp, device=device, **kw)      # warm-up (program build)
+            sc = with_bump_delta(scene, kw.pop("bump_texels")) if "bump_texels" in kw else scene
+            render(sc, width, height, spp, device=device, **kw)      # warm-up (program build)
             times, img = [], None
             for i in range(repeat):
-                r = render(scene, width, height, spp, device=device, seed=i, **kw)
+                r = render(sc, width, height, spp, device=device, seed=i, **kw)
                 times.append(r.stats["render_s"])
                 img = r.rgb if img is None else img
-            rows.append({"label": label, "spp": spp, **kw, "frame_s": median_spread(times),
+            rows.append({"label": label, **setting, "frame_s": median_spread(times),
                          **error_metrics(img, ref.rgb)})
         result["series"][name] = rows
     return result
