@@ -15,8 +15,9 @@
 /* The scene's geometry as kernel parameters and as arguments; arrays of kinds
  * the scene does not use are NULL and their code is not compiled. */
 #define TX_GEOM_PARAMS __global const float4* nodes, uint nnodes, __global const TriVerts* tris, \
-    __global const Sphere* spheres, __global const Cylinder* cylinders, __global const QuadVerts* quads
-#define TX_GEOM_ARGS nodes, nnodes, tris, spheres, cylinders, quads
+    __global const Sphere* spheres, __global const Cylinder* cylinders, __global const QuadVerts* quads, \
+    __global const Displaced* displaced, __global const float* heights
+#define TX_GEOM_ARGS nodes, nnodes, tris, spheres, cylinders, quads, displaced, heights
 
 /* Slab test for a ray with a zero direction component: such an axis bounds
  * nothing while the origin lies in [lo, hi] (boundaries included) and
@@ -121,6 +122,17 @@ inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, fl
                 }
             }
 #endif
+#if TX_DISPLACEMENT
+            else if (kind == PRIM_DISPLACED) {
+                for (uint i = first; i < end; ++i) {
+                    float t;
+                    float2 uv;
+                    if (displaced_intersect(displaced + i, heights, org, dir, tmin, h.t, 0, &t, &uv)) {
+                        h.t = t; h.b1 = uv.x; h.b2 = uv.y; h.prim = (PRIM_DISPLACED << HIT_KIND_SHIFT) | i;
+                    }
+                }
+            }
+#endif
         } else {
             float tl = box_entry(nodes[2u * first], nodes[2u * first + 1u], org, inv_d, tmin, h.t, par);
             float tr = box_entry(nodes[2u * first + 2u], nodes[2u * first + 3u], org, inv_d, tmin, h.t, par);
@@ -186,6 +198,13 @@ inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tma
                 float2 uv;
                 for (uint i = first; i < end; ++i)
                     if (quad_intersect(quads + i, org, dir, tmin, tmax, &t, &uv)) return 1;
+            }
+#endif
+#if TX_DISPLACEMENT
+            else if (kind == PRIM_DISPLACED) {
+                float2 uv;
+                for (uint i = first; i < end; ++i)
+                    if (displaced_intersect(displaced + i, heights, org, dir, tmin, tmax, 1, &t, &uv)) return 1;
             }
 #endif
         } else {

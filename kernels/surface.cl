@@ -91,6 +91,15 @@ __kernel void surface(__global const Ray* rays, __global const Hit* hits, __glob
         material = qs->material; object = qs->object; prim = qs->prim;
     }
 #endif
+#if TX_DISPLACEMENT
+    else if (kind == PRIM_DISPLACED) {
+        /* The found point; its normal from the height field's gradient (bump.h's formula). */
+        __global const Displaced* dp = displaced + idx;
+        float2 grad = displaced_geom(dp, heights, org, dir, h->t, (float2)(h->b1, h->b2), &g);
+        g.ng = bump_normal(g.ng, g.dpdu, g.dpdv, grad);
+        material = dp->material; object = dp->object; prim = dp->prim;
+    }
+#endif
     /* Texture coordinates with their screen-space derivatives (pbrt-v4 TextureEvalContext):
      * dp/dx, dp/dy from the camera (differentials.h), only where a trilinear lookup needs them;
      * elsewhere zero, which texture.h reads as level 0. */

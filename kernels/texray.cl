@@ -15,12 +15,15 @@
 #if TX_QUADS
 #include "quad.h"
 #endif
+#if TX_DISPLACEMENT
+#include "displace.h"
+#endif
 #include "bvh.h"
 #include "wrap.h"
 #include "mapping.h"
 #include "differentials.h"
 #include "texture.h"
-#if TX_BUMP || TX_NORMAL_MAPS || TX_VERTEX_NORMALS
+#if TX_BUMP || TX_NORMAL_MAPS || TX_VERTEX_NORMALS || TX_DISPLACEMENT
 #include "bump.h"
 #endif
 #if TX_VERTEX_NORMALS

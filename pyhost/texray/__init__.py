@@ -7,6 +7,7 @@
     tx.render(scene, width=640, height=480, spp=4).save("out.png")
 """
 from .bump import Bump, NormalMap
+from .displace import Displacement
 from .device import DeviceInfo, devices
 from .errors import BuildError, DeviceError, SceneError, TexrayError
 from .mapping import Projection, UVTransform
@@ -15,7 +16,7 @@ from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sp
 from .texture import Label
 from .transform import Transform
 
-__all__ = ["Bump", "NormalMap", "BuildError", "Camera", "Cylinder", "DeviceError", "DeviceInfo", "Image", "Label", "Material", "Mesh",
+__all__ = ["Bump", "Displacement", "NormalMap", "BuildError", "Camera", "Cylinder", "DeviceError", "DeviceInfo", "Image", "Label", "Material", "Mesh",
            "PointLight", "Projection", "Quad", "Scene", "SceneError", "Sphere", "TexrayError", "Texture", "Transform", "UVTransform", "devices",
            "render"]
 __version__ = "0.1.0"

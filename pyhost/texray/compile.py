@@ -14,6 +14,7 @@ from .errors import SceneError
 from .features import Features, max_lights_for, stack_size_for
 from .scene import (Cylinder, Mesh, Quad, Scene, Sphere, _normal_role_textures, _rgb, degenerate_faces,
                     object_frame, warn_degenerate)
+from .displace import tessellate
 from .texture import FILTERS
 from .texture import pack as _pack_texture_entries
 
@@ -38,6 +39,8 @@ class CompiledScene:
     background: np.ndarray         # float32 (4,)
     features: Features
     bvh: SceneBVH
+    displaced: np.ndarray | None = None   # layout.DISPLACED, leaf order (texray.displace)
+    heights: np.ndarray | None = None     # float32 height fields and their min-max pyramids
 
     def device_bytes(self) -> dict[str, int]:
         """Bytes each uploaded array takes on the device (absent or empty arrays are not uploaded)."""
@@ -45,7 +48,7 @@ class CompiledScene:
                   "cylinders": self.cylinders, "quad_verts": self.quad_verts, "quad_shade": self.quad_shade,
                   "nodes": self.nodes, "normals": self.normals, "uvs": self.uvs, "materials": self.materials,
                   "textures": self.textures, "texels": self.texels, "objects": self.objects,
-                  "lights": self.lights}
+                  "lights": self.lights, "displaced": self.displaced, "heights": self.heights}
         return {k: int(v.nbytes) for k, v in arrays.items() if v is not None and v.nbytes}
 
 
@@ -194,6 +197,76 @@ def _quads(items, mats):
     return qv, qs, (p32.min(axis=1), p32.max(axis=1))
 
 
+def _displaced(items, mats):
+    """layout.DISPLACED records, the shared height buffer and the (lo, hi) boxes of the
+    displaced volumes (slab [hmin, hmax] along a quad's normal; shell [r + hmin, r + hmax]
+    around a sphere or cylinder), for (obj_id, object) pairs whose displacement is
+    searched on the device."""
+    from .displace import METHOD_ADAPTIVE, METHOD_IDS, pack_heights
+    from .mapping import WRAP_MODES
+    rec = np.zeros(len(items), layout.DISPLACED)
+    if not items:
+        return rec, None, (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32))
+    heights, index = pack_heights([o.material.displacement for _, o in items])
+    lo, hi = np.zeros((len(items), 3)), np.zeros((len(items), 3))
+    for i, (obj_id, o) in enumerate(items):
+        d, r = o.material.displacement, rec[i]
+        where = f"{o.name}: material.displacement."
+        hmin, hmax = d.bounds()
+        r["hoff"], r["moff"], r["levels"] = index[_disp_key(d)]
+        r["hh"], r["hw"] = d.texture.shape
+        r["wrap"] = WRAP_MODES[d.wrap]
+        r["hmin"], r["hmax"] = hmin, hmax
+        r["method"] = METHOD_IDS[d.method] | (METHOD_ADAPTIVE if d.adaptive else 0)
+        r["steps"], r["refine"] = d.steps, d.refine
+        r["material"], r["object"] = mats.index(o.material), obj_id
+        if isinstance(o, Quad):
+            p, uv = o.world()
+            e0, e1 = p[1] - p[0], p[3] - p[0]
+            size = max(np.abs(p).max(), np.linalg.norm(e0), np.linalg.norm(e1))
+            # A parallelogram to float32 precision (2^-20 of its size): (u, v, h) are then
+            # affine along a ray, which the search and the maxmip traversal rely on.
+            if np.linalg.norm(p[0] + p[2] - p[1] - p[3]) > 2.0 ** -20 * size:
+                raise SceneError(f"{where}method: {d.method!r} displaces planar parallelogram quads only "
+                                 f"(p0 + p2 = p1 + p3); this quad's corners are {p.tolist()}: use "
+                                 "method = \"tessellate\"")
+            n = np.cross(e0, e1)
+            n /= np.linalg.norm(n)
+            r["shape"], r["p"], r["e0"], r["e1"], r["n"], r["uv"] = layout.DISP_QUAD, p[0], e0, e1, n, uv.ravel()
+            c = np.concatenate([p + hmin * n, p + hmax * n])
+            lo[i], hi[i] = c.min(axis=0), c.max(axis=0)
+        elif d.method == "maxmip":
+            raise SceneError(f"{where}method: 'maxmip' needs (u, v, h) affine along rays: planar quads only; "
+                             f"{type(o).__name__} {o.name} takes 'search' or 'tessellate'")
+        elif isinstance(o, Sphere):
+            c, rad, x, z = o.world()
+            if rad + hmin < 0:
+                raise SceneError(f"{where}offset: the lowest height {hmin:g} is below the centre of a sphere "
+                                 f"of radius {rad:g}")
+            r["shape"], r["p"], r["radius"], r["e0"], r["e1"], r["n"] = layout.DISP_SPHERE, c, rad, x, np.cross(z, x), z
+            lo[i], hi[i] = c - (rad + hmax), c + (rad + hmax)
+        else:
+            o_, rad, x, z, (z0, z1), (t0, t1) = o.world()
+            if rad + hmin < 0:
+                raise SceneError(f"{where}offset: the lowest height {hmin:g} is below the axis of a cylinder "
+                                 f"of radius {rad:g}")
+            r["shape"], r["p"], r["radius"], r["e0"], r["e1"], r["n"] = (layout.DISP_CYLINDER, o_, rad, x,
+                                                                          np.cross(z, x), z)
+            r["z_min"], r["z_max"], r["theta_min"], r["theta_max"] = z0, z1, t0, t1
+            ends = o_ + np.outer([z0, z1], z)
+            ext = (rad + hmax) * np.sqrt(np.maximum(0.0, 1.0 - z * z))
+            lo[i], hi[i] = ends.min(axis=0) - ext, ends.max(axis=0) + ext
+    # The kernel pads the volume by a rounding bound of the ray's height (displace.h);
+    # 2^-16 of the box's size keeps that pad inside the box for rays from within it.
+    pad = 2.0 ** -16 * (np.abs(lo).max(axis=1) + np.abs(hi).max(axis=1) + (hi - lo).max(axis=1))[:, None]
+    return rec, heights, _outward(lo - pad, hi + pad)
+
+
+def _disp_key(d):
+    from .displace import _key
+    return _key(d)
+
+
 def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> CompiledScene:
     """Flatten ``scene``; raises SceneError for anything that cannot be rendered.
     ``texture_filter``: None, or a filter name that replaces every texture's own."""
@@ -203,8 +276,18 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
         raise SceneError(f"render: texture_filter: expected None or one of {', '.join(FILTERS)}, "
                          f"got {texture_filter!r}")
     by_kind = {Mesh: [], Sphere: [], Cylinder: [], Quad: []}
+    displaced = []
     for obj_id, obj in enumerate(scene.objects):
-        by_kind[type(obj)].append((obj_id, obj))
+        d = getattr(obj.material, "displacement", None)
+        if d is None:
+            by_kind[type(obj)].append((obj_id, obj))
+        elif isinstance(obj, Mesh):
+            raise SceneError(f"{obj.name}: material.displacement: triangle meshes are not displaced (no sound "
+                             "bounding volume chosen); use a quad, sphere or cylinder")
+        elif d.method == "tessellate":
+            by_kind[Mesh].append((obj_id, tessellate(obj)))
+        else:
+            displaced.append((obj_id, obj))
     mats = _Materials(texture_filter)
     meshes = by_kind[Mesh]
     any_normals = any(m.normals is not None for _, m in meshes)
@@ -213,9 +296,11 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
     spheres, sphere_box = _spheres(by_kind[Sphere], mats)
     cylinders, cyl_box = _cylinders(by_kind[Cylinder], mats)
     quad_verts, quad_shade, quad_box = _quads(by_kind[Quad], mats)
+    disp, heights, disp_box = _displaced(displaced, mats)
 
     tree = build_scene_bvh({layout.PRIM_TRIANGLE: triangle_bounds(tri_verts), layout.PRIM_SPHERE: sphere_box,
-                            layout.PRIM_CYLINDER: cyl_box, layout.PRIM_QUAD: quad_box})
+                            layout.PRIM_CYLINDER: cyl_box, layout.PRIM_QUAD: quad_box,
+                            layout.PRIM_DISPLACED: disp_box})
     order = tree.orders
     if layout.PRIM_TRIANGLE in order:
         tri_verts, tri_shade = tri_verts[order[layout.PRIM_TRIANGLE]], tri_shade[order[layout.PRIM_TRIANGLE]]
@@ -225,6 +310,8 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
         cylinders = cylinders[order[layout.PRIM_CYLINDER]]
     if layout.PRIM_QUAD in order:
         quad_verts, quad_shade = quad_verts[order[layout.PRIM_QUAD]], quad_shade[order[layout.PRIM_QUAD]]
+    if layout.PRIM_DISPLACED in order:
+        disp = disp[order[layout.PRIM_DISPLACED]]
 
     materials, any_specular = mats.table()
     tex_table, texels = _pack_textures(mats.entries)
@@ -243,6 +330,7 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
                         shininess_maps="shininess_tex" in slots, labels="label_tex" in slots,
                         bump=any(m.bump is not None for m in mats.materials),
                         normal_maps=any(m.normal_map is not None for m in mats.materials),
+                        displacement=len(disp) > 0,
                         stack_size=stack_size_for(tree.depth), max_lights=max_lights_for(len(scene.lights)))
     return CompiledScene(
         tri_verts=tri_verts, tri_shade=tri_shade, spheres=spheres, cylinders=cylinders,
@@ -250,7 +338,7 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
         materials=materials, textures=tex_table, texels=texels, objects=objects, lights=lights,
         ambient=np.append(_rgb(scene.ambient, "ambient", "scene."), 0).astype(np.float32),
         background=np.append(_rgb(scene.background, "background", "scene."), 0).astype(np.float32),
-        features=features, bvh=tree)
+        features=features, bvh=tree, displaced=disp if len(disp) else None, heights=heights)
 
 
 def triangle_bounds(tri_verts):

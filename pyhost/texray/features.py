@@ -25,6 +25,7 @@ class Features:
     labels: bool = False           # some material has a label
     bump: bool = False             # some material has a bump map (kernels/bump.h)
     normal_maps: bool = False      # some material has a normal map (kernels/bump.h)
+    displacement: bool = False     # some quad, sphere or cylinder is displaced on the device (kernels/displace.h)
     stack_size: int = 64           # BVH traversal stack; >= the tree's depth
     max_lights: int = 0            # bound on the light count (1, 2, 4 or 8: loops unrolled); 0 = any count
 
@@ -83,6 +84,7 @@ def compile_options(f: Features) -> dict[str, int]:
         "TX_AOVS": int(f.aovs),
         "TX_BUMP": int(f.bump),
         "TX_NORMAL_MAPS": int(f.normal_maps),
+        "TX_DISPLACEMENT": int(f.displacement),
         "TX_STACK_SIZE": int(f.stack_size),
         "TX_MAX_LIGHTS": int(f.max_lights),
         "TX_FILTER_NEAREST": int(f.filter_nearest),

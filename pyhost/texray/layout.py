@@ -30,6 +30,7 @@ PRIM_TRIANGLE = 0
 PRIM_SPHERE = 1
 PRIM_CYLINDER = 2
 PRIM_QUAD = 3
+PRIM_DISPLACED = 4      # a displaced quad, sphere or cylinder (DISPLACED.shape): kernels/displace.h
 
 
 def encode_leaf(count, kind=PRIM_TRIANGLE):
@@ -95,6 +96,30 @@ QUAD_SHADE = np.dtype([
     ("uv", "<f4", (8,)),
     ("material", "<u4"), ("object", "<u4"), ("prim", "<u4"), ("flags", "<u4"),
 ])
+
+# --- Displaced primitive (issue 7): 160 bytes --------------------------------
+# shape DISP_QUAD: a planar parallelogram P(u, v) = p + u e0 + v e1, n = unit e0 x e1.
+# shape DISP_SPHERE / DISP_CYLINDER: centre / origin p, frame e0 = axis_x,
+# e1 = axis_z x axis_x, n = axis_z; cylinder z and theta (radians) ranges.
+# The surface is P(u, v) + H(u, v) n(u, v), H in [hmin, hmax] (world units), read
+# bilinearly from ``heights`` (float32) at texel ``hoff`` (hw x hh, row 0 on top,
+# wrap: kernels/wrap.h); its min-max pyramid (``levels`` levels, (min, max) pairs)
+# starts at ``moff`` (texray.displace.minmax_pyramid). method: texray.displace
+# METHOD_IDS | METHOD_ADAPTIVE; steps N, refine M: the search's knobs. uv: texture
+# coordinates of the quad's corners, as QuadShade.uv.
+DISPLACED = np.dtype([
+    ("p", "<f4", (3,)), ("radius", "<f4"),
+    ("e0", "<f4", (3,)), ("z_min", "<f4"),
+    ("e1", "<f4", (3,)), ("z_max", "<f4"),
+    ("n", "<f4", (3,)), ("theta_min", "<f4"),
+    ("uv", "<f4", (8,)),
+    ("hmin", "<f4"), ("hmax", "<f4"), ("theta_max", "<f4"), ("material", "<u4"),
+    ("object", "<u4"), ("prim", "<u4"), ("shape", "<u4"), ("method", "<u4"),
+    ("hoff", "<u4"), ("moff", "<u4"), ("hw", "<u4"), ("hh", "<u4"),
+    ("levels", "<u4"), ("wrap", "<u4"), ("steps", "<u4"), ("refine", "<u4"),
+])
+DISP_QUAD, DISP_SPHERE, DISP_CYLINDER = 0, 1, 2
+DISP_SEARCH, DISP_MAXMIP, DISP_ADAPTIVE = 0, 1, 4     # DISPLACED.method: a method | the adaptive bit
 
 # --- Material: 64 bytes -----------------------------------------------------
 # Texture slots are indices into the texture table, -1 = none.
@@ -189,7 +214,8 @@ AOV_FLOATS = 20
 
 STRUCTS = {
     "BVHNode": BVH_NODE, "TriVerts": TRI_VERTS, "TriShade": TRI_SHADE,
-    "Sphere": SPHERE, "Cylinder": CYLINDER, "QuadVerts": QUAD_VERTS, "QuadShade": QUAD_SHADE, "Material": MATERIAL,
+    "Sphere": SPHERE, "Cylinder": CYLINDER, "QuadVerts": QUAD_VERTS, "QuadShade": QUAD_SHADE,
+    "Displaced": DISPLACED, "Material": MATERIAL,
     "TextureInfo": TEXTURE, "ObjectInfo": OBJECT, "PointLight": POINT_LIGHT, "Camera": CAMERA,
     "Ray": RAY, "Hit": HIT, "Surface": SURFACE,
 }
@@ -199,7 +225,9 @@ _C_TYPES = {np.dtype("<f4"): "float", np.dtype("<u4"): "uint", np.dtype("<i4"): 
 CONSTANTS = {
     "LEAF_COUNT_BITS": LEAF_COUNT_BITS, "LEAF_COUNT_MASK": LEAF_COUNT_MASK,
     "PRIM_TRIANGLE": PRIM_TRIANGLE, "PRIM_SPHERE": PRIM_SPHERE, "PRIM_CYLINDER": PRIM_CYLINDER,
-    "PRIM_QUAD": PRIM_QUAD, "HIT_KIND_SHIFT": HIT_KIND_SHIFT, "HIT_INDEX_MASK": HIT_INDEX_MASK,
+    "PRIM_QUAD": PRIM_QUAD, "PRIM_DISPLACED": PRIM_DISPLACED,
+    "DISP_QUAD": DISP_QUAD, "DISP_SPHERE": DISP_SPHERE, "DISP_CYLINDER": DISP_CYLINDER,
+    "DISP_SEARCH": DISP_SEARCH, "DISP_MAXMIP": DISP_MAXMIP, "DISP_ADAPTIVE": DISP_ADAPTIVE, "HIT_KIND_SHIFT": HIT_KIND_SHIFT, "HIT_INDEX_MASK": HIT_INDEX_MASK,
     "AOV_FLOATS": AOV_FLOATS, **{f"AOV_{k.upper()}": v[0] for k, v in AOVS.items()},
     "TRI_HAS_NORMALS": TRI_HAS_NORMALS,
     "TRI_HAS_UVS": TRI_HAS_UVS,

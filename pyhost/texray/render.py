@@ -64,6 +64,7 @@ class _Uploaded:
         self.nodes, self.tris, self.shade = buf(cs.nodes), buf(cs.tri_verts), buf(cs.tri_shade)
         self.spheres, self.cylinders = buf(cs.spheres), buf(cs.cylinders)
         self.quads, self.quad_shade = buf(cs.quad_verts), buf(cs.quad_shade)
+        self.displaced, self.heights = buf(cs.displaced), buf(cs.heights)
         self.normals, self.uvs = buf(cs.normals), buf(cs.uvs)
         self.materials, self.textures, self.texels = buf(cs.materials), buf(cs.textures), buf(cs.texels)
         self.lights, self.objects = buf(cs.lights), buf(cs.objects)
@@ -73,7 +74,8 @@ class _Uploaded:
     @property
     def geom(self):
         """The kernels' TX_GEOM_PARAMS arguments."""
-        return (self.nodes, self.nnodes, self.tris, self.spheres, self.cylinders, self.quads)
+        return (self.nodes, self.nnodes, self.tris, self.spheres, self.cylinders, self.quads, self.displaced,
+                self.heights)
 
 
 def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=True, shadows=True,

@@ -84,6 +84,8 @@ class Material:
     composited over kd (after the tint): kd = lerp(kd, label.rgb, label.alpha).
     bump: a :class:`texray.Bump`; normal_map: a :class:`texray.NormalMap` (at most one
     of the two: each defines the shading normal on its own).
+    displacement: a :class:`texray.Displacement` moving quads, spheres and cylinders
+    along their normal (texray.displace).
     """
     diffuse: object = (0.8, 0.8, 0.8)
     specular: object = 0.0
@@ -93,6 +95,7 @@ class Material:
     normal_map: object = None
     shininess_map: object = None
     label: object = None
+    displacement: object = None    # a texray.Displacement (texray.displace): the geometry moves
 
     def validate(self, where="material."):
         if isinstance(self.diffuse, Texture):
@@ -110,6 +113,11 @@ class Material:
         if self.label is not None and not isinstance(self.label, Label):
             raise SceneError(f"{where}label: expected a texray.Label, got {self.label!r}")
         _check_normal_roles(self, where)
+        if self.displacement is not None:
+            from .displace import Displacement
+            if not isinstance(self.displacement, Displacement):
+                raise SceneError(f"{where}displacement: expected a texray.Displacement, got {self.displacement!r}")
+            self.displacement.validate(f"{where}displacement.")
         return kd, ks, n
 
     def texture_roles(self):

@@ -1,0 +1,412 @@
+#line 2 "displace.h"
+/* Displacement mapping (the lecture's "Displacement Mapping" slides): the surface
+ * S(u, v) = P(u, v) + H(u, v) n(u, v) of a quad, sphere or cylinder (Displaced,
+ * texray.layout.DISPLACED), H the bilinear interpolant of a float32 height texture
+ * in world units (texray.displace: conventions of texture.h, v = 0 the bottom row,
+ * texel centres at (i + 0.5) / W; the texture's wrap mode).
+ *
+ * Every point q of space has local coordinates (u, v, h): for a parallelogram quad
+ * the affine ones (q = P0 + u e0 + v e1 + h n), for a sphere the uv of its direction
+ * and h = |q - c| - r, for a cylinder its (theta, z) uv and h = rho - r. Along a ray,
+ * f(t) = h(t) - H(u(t), v(t)) is > 0 above the surface and < 0 below; outside the
+ * (u, v) domain there is no surface (f = +inf, "above").
+ *
+ * Per ray: entry A and exit B of the bounding volume (slab [hmin, hmax] over a quad
+ * in its local coordinates, which also clips to the (u, v) domain; shell [r + hmin,
+ * r + hmax] for spheres and cylinders, cut at the inner sphere, which lies below
+ * the surface everywhere), widened by delta, a rounding bound of h along the ray,
+ * so that a surface lying on the volume's boundary (an all-zero or all-one map, or
+ * scale 0) is still bracketed. Then one of:
+ *   DISP_SEARCH: the lecture's linear search, N = steps samples from A to B, for the
+ *     first sample on the other side of the surface than A, then M = refine
+ *     bisection steps in that interval, and a secant step in the final bracket.
+ *     DISP_ADAPTIVE: N / max(|cos|, 1/8) samples, cos between the ray and the
+ *     normal at A.
+ *   DISP_MAXMIP: Tevs, Ihrke, Seidel 2008 (maximum mipmaps), two-sided: a cell of
+ *     the min-max pyramid is skipped when the ray's height over it lies entirely
+ *     above its max or below its min, else descended; in a texel cell (the
+ *     bilinear patch between four texel centres) f is a quadratic in t, solved
+ *     exactly. Conservative: a cell is only skipped when it cannot hold a root, so
+ *     no spike is missed whatever its width. Quads only (u, v, h affine in t).
+ * Closest hit: the first sign change of f after A (seen from above or below).
+ * Any hit (shadow rays): a crossing into the surface (f from + to -) always counts;
+ * one out of it only when the ray entered the volume from outside (A > tmin): a ray
+ * leaving the surface it starts on (self-shadowing) must not see its own origin. */
+#ifndef TEXRAY_DISPLACE_H
+#define TEXRAY_DISPLACE_H
+
+#include "wrap.h"
+
+#define TX_DISP_MAX_LEVELS 32
+
+typedef struct {
+    float3 q0, dir;         /* ray origin relative to Displaced.p, direction */
+    float3 e0, e1, n;       /* quad: edges and unit normal; sphere/cylinder: axis_x, axis_y, axis_z */
+    float3 r0, r1;          /* quad: dual basis (u = q.r0, v = q.r1) */
+    uint shape, hoff;
+    int w, h, mode;
+    float radius, z0, z1, th0, span, hmin, hmax;
+    float delta;            /* rounding bound of h along the ray (header comment) */
+} DispFrame;
+
+inline DispFrame disp_frame(__global const Displaced* d, float3 org, float3 dir)
+{
+    DispFrame f;
+    f.q0 = org - vload3(0, d->p);
+    f.dir = dir;
+    f.e0 = vload3(0, d->e0); f.e1 = vload3(0, d->e1); f.n = vload3(0, d->n);
+    f.shape = d->shape; f.hoff = d->hoff;
+    f.w = (int)d->hw; f.h = (int)d->hh; f.mode = (int)d->wrap;
+    f.radius = d->radius; f.z0 = d->z_min; f.z1 = d->z_max;
+    f.th0 = d->theta_min; f.span = d->theta_max - d->theta_min;
+    f.hmin = d->hmin; f.hmax = d->hmax;
+    float ext = TX_MAX(fabs(f.hmin), fabs(f.hmax));
+    if (f.shape == DISP_QUAD) {
+        float3 c1 = cross3(f.e1, f.n), c2 = cross3(f.n, f.e0);
+        float inv = 1.0f / dot3(f.e0, c1);
+        f.r0 = c1 * inv; f.r1 = c2 * inv;
+        ext += sqrt(dot3(f.e0, f.e0)) + sqrt(dot3(f.e1, f.e1));
+    } else {
+        f.r0 = f.r1 = (float3)(0.0f);
+        ext += f.radius + (f.shape == DISP_CYLINDER ? TX_MAX(fabs(f.z0), fabs(f.z1)) : 0.0f);
+    }
+    /* A point of the volume is within ext of p; it is computed as q0 + t dir with
+     * |t dir| <= |q0| + ext, and h from it in a few more operations: 16 roundings of
+     * |q0| + ext bound h's error (pbrt-v4 3.9's gamma bounds). */
+    f.delta = gamma_n(16.0f) * (sqrt(dot3(f.q0, f.q0)) + ext);
+    return f;
+}
+
+/* (u, v, h) of the point q (relative to Displaced.p); u, v NaN or outside [0, 1]
+ * where the primitive has no surface. */
+inline float3 disp_local(const DispFrame* f, float3 q)
+{
+    if (f->shape == DISP_QUAD) return (float3)(dot3(q, f->r0), dot3(q, f->r1), dot3(q, f->n));
+    float x = dot3(q, f->e0), y = dot3(q, f->e1), z = dot3(q, f->n);
+    float rho = hypot(x, y);
+    if (f->shape == DISP_SPHERE) {
+        float phi = atan2(y, x);
+        if (phi < 0.0f) phi += 2.0f * M_PI_F;
+        return (float3)(TX_MIN(phi * (0.5f * M_1_PI_F), 1.0f), TX_MAX(1.0f - atan2(rho, z) * M_1_PI_F, 0.0f),
+                        hypot(rho, z) - f->radius);
+    }
+    float rel = atan2(y, x) - f->th0;
+    rel -= (2.0f * M_PI_F) * floor(rel * (0.5f * M_1_PI_F));      /* [0, 2pi] */
+    return (float3)(rel / f->span, (z - f->z0) / (f->z1 - f->z0), rho - f->radius);
+}
+
+/* The four texels around texel-cell corner index (cx, cy) (cell grid of
+ * texray.displace.minmax_pyramid: texels cx - 1, cx and rows cy - 1, cy). */
+inline float4 disp_cell_corners(__global const float* hts, const DispFrame* f, int cx, int cy)
+{
+    int x0 = wrap_index(cx - 1, f->w, f->mode), x1 = wrap_index(cx, f->w, f->mode);
+    int y0 = wrap_index(cy - 1, f->h, f->mode), y1 = wrap_index(cy, f->h, f->mode);
+    __global const float* t = hts + f->hoff;
+    return (float4)(t[y0 * f->w + x0], t[y0 * f->w + x1], t[y1 * f->w + x0], t[y1 * f->w + x1]);
+}
+
+/* H(u, v) for (u, v) in [0, 1]^2 and its gradient (dH/du, dH/dv) (texture.h's taps). */
+inline float disp_height(__global const float* hts, const DispFrame* f, float2 uv, float2* grad)
+{
+    float x = uv.x * (float)f->w + 0.5f, y = (1.0f - uv.y) * (float)f->h + 0.5f;
+    float cx = floor(x), cy = floor(y);
+    float ax = x - cx, ay = y - cy;
+    float4 c = disp_cell_corners(hts, f, (int)cx, (int)cy);
+    if (grad) {
+        float dx = (c.y - c.x) * (1.0f - ay) + (c.w - c.z) * ay;
+        float dy = (c.z - c.x) * (1.0f - ax) + (c.w - c.y) * ax;
+        *grad = (float2)(dx * (float)f->w, -dy * (float)f->h);
+    }
+    return (c.x * (1.0f - ax) + c.y * ax) * (1.0f - ay) + (c.z * (1.0f - ax) + c.w * ax) * ay;
+}
+
+/* f(t) = h - H at the ray's point t (+inf outside the domain); *uv its (u, v). */
+inline float disp_f(__global const float* hts, const DispFrame* f, float t, float2* uv)
+{
+    float3 l = disp_local(f, f->q0 + t * f->dir);
+    *uv = l.xy;
+    if (!(l.x >= 0.0f && l.x <= 1.0f && l.y >= 0.0f && l.y <= 1.0f)) return INFINITY;
+    return l.z - disp_height(hts, f, l.xy, 0);
+}
+
+/* The ray's interval [*a, *b] within (tmin, tmax) of the sphere |q| <= R: 0 if none. */
+inline int disp_ball(float3 q0, float3 dir, float R, float* a, float* b)
+{
+    float aa = dot3(dir, dir);
+    float3 w = cross3(q0, dir);
+    float disc = R * R - dot3(w, w) / aa;                 /* R^2 - (distance to the line)^2 */
+    if (!(disc >= 0.0f)) return 0;
+    float mid = -dot3(q0, dir) / aa, hc = sqrt(disc / aa);
+    *a = mid - hc; *b = mid + hc;
+    return 1;
+}
+
+/* Entry A and exit B of the (widened) volume within (tmin, tmax); 0 if the ray misses it. */
+inline int disp_clip(const DispFrame* f, float tmin, float tmax, float* A, float* B)
+{
+    float tn = tmin, tf = tmax;
+    float hlo = f->hmin - f->delta, hhi = f->hmax + f->delta;
+    if (f->shape == DISP_QUAD) {
+        float3 lo = disp_local(f, f->q0);
+        float3 ld = (float3)(dot3(f->dir, f->r0), dot3(f->dir, f->r1), dot3(f->dir, f->n));
+        float a[3] = { 0.0f, 0.0f, hlo }, b[3] = { 1.0f, 1.0f, hhi };
+        for (int k = 0; k < 3; ++k) {
+            float o = comp3(lo, k), d = comp3(ld, k);
+            if (d == 0.0f) {
+                if (!(o >= a[k] && o <= b[k])) return 0;
+                continue;
+            }
+            float t0 = (a[k] - o) / d, t1 = (b[k] - o) / d;
+            tn = TX_MAX(tn, TX_MIN(t0, t1));
+            tf = TX_MIN(tf, TX_MAX(t0, t1));
+        }
+    } else if (f->shape == DISP_SPHERE) {
+        float a, b;
+        if (!disp_ball(f->q0, f->dir, f->radius + hhi, &a, &b)) return 0;
+        tn = TX_MAX(tn, a); tf = TX_MIN(tf, b);
+        float rin = f->radius + hlo;                       /* below the surface everywhere */
+        if (rin > 0.0f && disp_ball(f->q0, f->dir, rin, &a, &b) && a > tn) tf = TX_MIN(tf, a);
+    } else {
+        float zo = dot3(f->q0, f->n), zd = dot3(f->dir, f->n);
+        float3 qp = f->q0 - zo * f->n, dp = f->dir - zd * f->n;
+        float R = f->radius + hhi;
+        if (dot3(dp, dp) > 0.0f) {
+            float a, b;
+            if (!disp_ball(qp, dp, R, &a, &b)) return 0;
+            tn = TX_MAX(tn, a); tf = TX_MIN(tf, b);
+        } else if (!(dot3(qp, qp) <= R * R)) {
+            return 0;
+        }
+        if (zd == 0.0f) {
+            if (!(zo >= f->z0 && zo <= f->z1)) return 0;
+        } else {
+            float t0 = (f->z0 - zo) / zd, t1 = (f->z1 - zo) / zd;
+            tn = TX_MAX(tn, TX_MIN(t0, t1)); tf = TX_MIN(tf, TX_MAX(t0, t1));
+        }
+    }
+    *A = tn; *B = tf;
+    return tn <= tf && tn < INFINITY;
+}
+
+/* The lecture's search on [A, B] (header comment). Samples where the primitive has
+ * no surface (outside the (u, v) domain, e.g. [A, B]'s ends rounded just past the
+ * quad's edge, or a partial cylinder's gap) are skipped: they neither start nor end
+ * a bracket. */
+inline int disp_search(__global const float* hts, const DispFrame* f, float A, float B, uint steps, uint refine,
+                       int any, int from_outside, float* t_hit, float2* uv_hit)
+{
+    float2 uv;
+    float dt = (B - A) / (float)steps;
+    float t_prev = A, f_prev = INFINITY;
+    int below0 = -1;                                   /* side of the first sample with a surface */
+    for (uint i = 0u; i <= steps; ++i) {
+        float t = i == steps ? B : A + (float)i * dt;
+        float fi = disp_f(hts, f, t, &uv);
+        if (!(fi < INFINITY)) continue;
+        int below = fi < 0.0f;
+        if (below0 < 0) {
+            below0 = below;
+        } else if (below != below0) {
+            if (any) {
+                if (below || from_outside) { *t_hit = t; *uv_hit = uv; return 1; }
+                below0 = below;                        /* left the surface it starts on */
+            } else {
+                float lo = t_prev, hi = t, flo = f_prev, fhi = fi;
+                for (uint k = 0u; k < refine; ++k) {
+                    float m = 0.5f * (lo + hi);
+                    float fm = disp_f(hts, f, m, &uv);
+                    if (!(fm < INFINITY)) break;
+                    if ((fm < 0.0f) == below0) { lo = m; flo = fm; } else { hi = m; fhi = fm; }
+                }
+                float th = hi;
+                if (flo != fhi)                        /* secant step in the final bracket */
+                    th = clamp(lo + (hi - lo) * (flo / (flo - fhi)), lo, hi);
+                disp_f(hts, f, th, uv_hit);
+                *uv_hit = clamp(*uv_hit, 0.0f, 1.0f);
+                *t_hit = th;
+                return 1;
+            }
+        }
+        t_prev = t; f_prev = fi;
+    }
+    return 0;
+}
+
+/* Smallest root s in [0, len] of c0 + c1 s + c2 s^2 that counts (header comment:
+ * for any-hit rays, a root where f rises counts only when from_outside). */
+inline int disp_quadratic_root(float c0, float c1, float c2, float len, int any, int from_outside, float* s)
+{
+    float r[2];
+    if (c2 == 0.0f) {
+        r[0] = -c0 / c1; r[1] = INFINITY;                 /* c1 = 0: NaN or inf, rejected below */
+    } else {
+        float disc = c1 * c1 - 4.0f * c2 * c0;
+        if (!(disc >= 0.0f)) return 0;
+        float q = -0.5f * (c1 + copysign(sqrt(disc), c1));
+        float a = q / c2, b = c0 / q;
+        r[0] = TX_MIN(a, b); r[1] = TX_MAX(a, b);
+        if (q == 0.0f) { r[0] = r[1] = -c1 / (2.0f * c2); }
+    }
+    for (int k = 0; k < 2; ++k) {
+        float x = r[k];
+        if (!(x >= 0.0f && x <= len)) continue;
+        if (any && !from_outside && !(c1 + 2.0f * c2 * x < 0.0f)) continue;
+        *s = x;
+        return 1;
+    }
+    return 0;
+}
+
+/* Exact min-max pyramid traversal on [A, B] (quads; header comment). Cell
+ * coordinates X = u W + 1/2, Y = (1 - v) H + 1/2 (level 0: (W + 1) x (H + 1) cells),
+ * affine in t; cells are tracked as integers, so rounding never loops or skips. */
+inline int disp_maxmip(__global const float* hts, __global const Displaced* d, const DispFrame* f, float A, float B,
+                       int any, int from_outside, float* t_hit, float2* uv_hit)
+{
+    int levels = TX_MIN((int)d->levels, TX_DISP_MAX_LEVELS);
+    uint off[TX_DISP_MAX_LEVELS];
+    int cw[TX_DISP_MAX_LEVELS], ch[TX_DISP_MAX_LEVELS];
+    off[0] = d->moff; cw[0] = f->w + 1; ch[0] = f->h + 1;
+    for (int l = 1; l < levels; ++l) {
+        off[l] = off[l - 1] + 2u * (uint)(cw[l - 1] * ch[l - 1]);
+        cw[l] = (cw[l - 1] + 1) / 2; ch[l] = (ch[l - 1] + 1) / 2;
+    }
+    float3 lo = disp_local(f, f->q0);
+    float3 ld = (float3)(dot3(f->dir, f->r0), dot3(f->dir, f->r1), dot3(f->dir, f->n));
+    float W = (float)f->w, H = (float)f->h;
+    float X0 = lo.x * W + 0.5f, dX = ld.x * W, Y0 = (1.0f - lo.y) * H + 0.5f, dY = -ld.y * H;
+    float h0 = lo.z, dh = ld.z;
+    int sx = dX > 0.0f ? 1 : -1, sy = dY > 0.0f ? 1 : -1;
+    int L = levels - 1, cx = 0, cy = 0;
+    float t = A;
+    /* Each level-0 cell the ray crosses is entered once, with at most one ascent and
+     * `levels` descents per step: a bound that only a broken input can reach. Cells
+     * only ever advance along the ray (a descent picks a child of the current cell,
+     * an ascent the parent of the next), so the loop ends. */
+    int cap = (f->w + f->h + 4) * (2 * levels + 2) + 64;
+    for (int it = 0; it < cap; ++it) {
+        float size = (float)(1 << L);
+        float bx = (float)(sx > 0 ? cx + 1 : cx) * size, by = (float)(sy > 0 ? cy + 1 : cy) * size;
+        float tx = dX != 0.0f ? (bx - X0) / dX : INFINITY, ty = dY != 0.0f ? (by - Y0) / dY : INFINITY;
+        float te = TX_MAX(TX_MIN(TX_MIN(tx, ty), B), t);
+        float ha = h0 + t * dh, hb = h0 + te * dh;
+        float2 mm = vload2(0, hts + off[L] + 2u * (uint)(cy * cw[L] + cx));
+        int skip = TX_MIN(ha, hb) > mm.y + f->delta || TX_MAX(ha, hb) < mm.x - f->delta;
+        if (!skip) {
+            if (L > 0) {
+                --L;
+                size *= 0.5f;
+                float xt = X0 + t * dX, yt = Y0 + t * dY;
+                float mx = (float)(2 * cx + 1) * size, my = (float)(2 * cy + 1) * size;
+                int kx = 2 * cx + (xt > mx || (xt == mx && dX > 0.0f));
+                int ky = 2 * cy + (yt > my || (yt == my && dY > 0.0f));
+                cx = TX_MIN(kx, cw[L] - 1); cy = TX_MIN(ky, ch[L] - 1);
+                continue;
+            }
+            /* Texel cell: f(t + s) = c0 + c1 s + c2 s^2 against the bilinear patch. */
+            float4 c = disp_cell_corners(hts, f, cx, cy);
+            float b = c.y - c.x, cc = c.z - c.x, dd = c.x - c.y - c.z + c.w;
+            float fx0 = X0 + t * dX - (float)cx, fy0 = Y0 + t * dY - (float)cy;
+            float c0 = ha - (c.x + b * fx0 + cc * fy0 + dd * fx0 * fy0);
+            float c1 = dh - (b * dX + cc * dY + dd * (fx0 * dY + fy0 * dX));
+            float c2 = -dd * dX * dY;
+            float s;
+            if (disp_quadratic_root(c0, c1, c2, te - t, any, from_outside, &s)) {
+                float th = t + s;
+                float3 l = disp_local(f, f->q0 + th * f->dir);
+                *t_hit = th;
+                *uv_hit = clamp(l.xy, 0.0f, 1.0f);
+                return 1;
+            }
+        }
+        if (te >= B) return 0;
+        t = te;
+        int px = cx >> 1, py = cy >> 1;
+        if (tx <= ty) cx += sx; else cy += sy;
+        if (cx < 0 || cy < 0 || cx >= cw[L] || cy >= ch[L]) return 0;
+        /* Up one level only into a new parent: a sibling of the same parent is next in
+         * line anyway, and going up there could descend, by rounding, into the cell
+         * just left (a ray along a cell boundary would then never advance). */
+        if (L < levels - 1 && ((cx >> 1) != px || (cy >> 1) != py)) { ++L; cx >>= 1; cy >>= 1; }
+    }
+    return 0;
+}
+
+/* Nearest (any = 0) or any (any = 1) hit of the displaced surface with t in (tmin,
+ * tmax); *uv = the primitive's (u, v) at the hit. NaN input and degenerate frames
+ * give a miss (every range test is false for NaN). */
+inline int displaced_intersect(__global const Displaced* d, __global const float* hts, float3 org, float3 dir,
+                               float tmin, float tmax, int any, float* t, float2* uv)
+{
+    DispFrame f = disp_frame(d, org, dir);
+    float A, B;
+    if (!disp_clip(&f, tmin, tmax, &A, &B)) return 0;
+    int from_outside = A > tmin;
+    uint method = d->method;
+    int hit;
+    if ((method & 3u) == DISP_MAXMIP && f.shape == DISP_QUAD) {
+        hit = disp_maxmip(hts, d, &f, A, B, any, from_outside, t, uv);
+    } else {
+        uint steps = TX_MAX(d->steps, 1u);
+        if (method & DISP_ADAPTIVE) {
+            float3 qa = f.q0 + A * dir;
+            float3 nrm = f.shape == DISP_QUAD ? f.n
+                       : (f.shape == DISP_SPHERE ? qa : qa - dot3(qa, f.n) * f.n);
+            float cosv = fabs(dot3(nrm, dir)) * rsqrt(dot3(nrm, nrm) * dot3(dir, dir));
+            steps = (uint)ceil((float)steps / TX_MAX(cosv, 0.125f));   /* NaN cos -> 8 N */
+        }
+        hit = disp_search(hts, &f, A, B, steps, d->refine, any, from_outside, t, uv);
+    }
+    return hit && *t > tmin && *t < tmax;
+}
+
+/* Geometry of a hit at t with the primitive's (u, v) = param (from
+ * displaced_intersect): the point on the ray, the base surface's outward normal n
+ * and its tangents dP/du, dP/dv scaled to the displaced radius (S = c + (r + H) n
+ * for spheres: S_u = (r + H) n_u + H_u n, the bump formula's P_u, P_v without its
+ * "B small" approximation); returns (dH/du, dH/dv) for bump.h bump_normal, which
+ * turns n into the displaced surface's normal. uv: texture coordinates (quads: the
+ * corners' uvs interpolated; spheres and cylinders: their uv = param). */
+inline float2 displaced_geom(__global const Displaced* d, __global const float* hts, float3 org, float3 dir,
+                             float t, float2 param, Geom* g)
+{
+    DispFrame f = disp_frame(d, org, dir);
+    float2 grad;
+    float H = disp_height(hts, &f, clamp(param, 0.0f, 1.0f), &grad);
+    float3 p = org + t * dir;
+    g->p = p;
+    g->perr = gamma_n(16.0f) * (abs3(org) + abs3(t * dir) + (float3)(f.delta));
+    float u = param.x, v = param.y;
+    if (f.shape == DISP_QUAD) {
+        g->ng = f.n;
+        g->dpdu = f.e0; g->dpdv = f.e1;
+        __global const float* tu = d->uv;
+        float2 t0 = (float2)(tu[0], tu[1]), t1 = (float2)(tu[2], tu[3]);
+        float2 t2 = (float2)(tu[4], tu[5]), t3 = (float2)(tu[6], tu[7]);
+        float2 ta = t0 + u * (t1 - t0), tb = t3 + u * (t2 - t3);
+        g->uv = ta + v * (tb - ta);
+        return grad;
+    }
+    float R = f.radius + H;
+    float3 q = p - vload3(0, d->p);
+    float x = dot3(q, f.e0), y = dot3(q, f.e1), z = dot3(q, f.n);
+    float rho = hypot(x, y);
+    float3 radial = rho > 0.0f ? (x * f.e0 + y * f.e1) / rho : f.e0;
+    float3 dphi = rho > 0.0f ? (x * f.e1 - y * f.e0) / rho : f.e1;        /* d radial / d phi */
+    g->uv = param;
+    if (f.shape == DISP_SPHERE) {
+        float3 n = tx_unit_or(q, f.n);
+        float st = rho / TX_MAX(hypot(rho, z), FLT_MIN), ct = z / TX_MAX(hypot(rho, z), FLT_MIN);
+        g->ng = n;
+        g->dpdu = (2.0f * M_PI_F * R * st) * dphi;
+        g->dpdv = (-M_PI_F * R) * (ct * radial - st * f.n);
+        if (!(st > 0.0f)) g->dpdu = (2.0f * M_PI_F * R) * f.e1;               /* pole: as sphere.h */
+    } else {
+        g->ng = radial;
+        g->dpdu = (f.span * R) * dphi;
+        g->dpdv = (f.z1 - f.z0) * f.n;
+    }
+    return grad;
+}
+
+#endif
