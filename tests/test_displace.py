@@ -1,0 +1,318 @@
+"""Displacement mapping (texray.displace, kernels/displace.h) against float64 references.
+
+The reference for a displaced quad is a dense float64 root finder on the same height
+field (the bilinear interpolant of the texels, texray.displace.height): f(t) = h - H
+sampled at 4000 points between the volume's entry and exit, the first sign change
+bisected 50 times. Tolerances: float32 rays over a unit-sized quad give hit distances
+to a few 1e-7; the maxmip traversal solves the cell's quadratic in float32, whose
+conditioning near grazing incidence costs up to ~1e-4 of t (T_EXACT); the search
+brackets the root to (B - A) / (N 2^M) and then takes a secant step (T_SEARCH).
+"""
+import numpy as np
+import pyopencl as cl
+import pytest
+import texray as tx
+from texray import displace as D
+from texray import layout
+from texray.trace import Tracer
+
+T_EXACT = 2e-4       # relative t error of maxmip: the cell quadratic in float32 (module docstring)
+T_SEARCH = 2e-3      # relative t error of N = 128, M = 8 at up to 80 degrees
+CORNERS = ((-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1))     # u along +x, v along -z, n = +y
+
+
+def _tex(a):
+    return tx.Texture.from_array(np.asarray(a, np.float32).reshape(a.shape[0], a.shape[1], 1))
+
+
+def _sines(n=48, a=0.5, k=3.0):
+    """h = a sin(k x) sin(k y) + a at the texel centres (texture row 0 on top)."""
+    c = (np.arange(n) + 0.5) / n * 2 * np.pi
+    return _tex(a + a * np.sin(k * c)[None, :] * np.sin(k * c)[:, None])
+
+
+def _quad_scene(d, extra=()):
+    s = tx.Scene(camera=tx.Camera(eye=(0, 2, 3), look_at=(0, 0, 0)),
+                 lights=[tx.PointLight(position=(0, 5, 0), intensity=(10, 10, 10))])
+    s.add(tx.Quad(*CORNERS, material=tx.Material(displacement=d)))
+    for o in extra:
+        s.add(o)
+    return s
+
+
+def quad_reference(d, org, dirs, samples=4000):
+    """float64 (t, uv) of the first crossing of each ray with the displaced CORNERS quad; NaN if none."""
+    p = np.asarray(CORNERS, np.float64)
+    e0, e1 = p[1] - p[0], p[3] - p[0]
+    n = np.cross(e0, e1)
+    n /= np.linalg.norm(n)
+    m = np.linalg.inv(np.stack([e0, e1, n], 1))
+    h = d.heights()
+    ld = np.asarray(dirs, np.float64) @ m.T
+    lo = np.broadcast_to((np.asarray(org, np.float64) - p[0]) @ m.T, ld.shape)
+    a, b = np.array([0, 0, h.min() - 1e-9]), np.array([1, 1, h.max() + 1e-9])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = (a - lo) / ld, (b - lo) / ld
+        tn = np.max(np.where(ld != 0, np.minimum(t0, t1), np.where((lo >= a) & (lo <= b), -np.inf, np.inf)), 1)
+        tf = np.min(np.where(ld != 0, np.maximum(t0, t1), np.where((lo >= a) & (lo <= b), np.inf, -np.inf)), 1)
+    tn = np.maximum(tn, 0)
+    ok = tn < tf
+    tf = np.where(ok, tf, tn)
+
+    def f(t):
+        q = lo[:, None] + t[..., None] * ld[:, None]
+        u, v = q[..., 0], q[..., 1]
+        inside = (u >= -1e-12) & (u <= 1 + 1e-12) & (v >= -1e-12) & (v <= 1 + 1e-12)
+        return np.where(inside, q[..., 2] - D.height(h, np.clip(u, 0, 1), np.clip(v, 0, 1), d.wrap), np.inf)
+
+    tn, tf = np.where(ok, tn, 0.0), np.where(ok, tf, 0.0)     # misses: an empty interval, no inf - inf
+    t = tn[:, None] + np.linspace(0, 1, samples)[None] * (tf - tn)[:, None]
+    below = f(t) < 0
+    change = below != below[:, :1]
+    ok &= change.any(axis=1)
+    i = np.argmax(change, axis=1)
+    rows = np.arange(len(t))
+    lo_t, hi_t, b0 = t[rows, np.maximum(i - 1, 0)], t[rows, i], below[:, 0]
+    for _ in range(50):
+        mid = 0.5 * (lo_t + hi_t)
+        same = (f(mid[:, None])[:, 0] < 0) == b0
+        lo_t, hi_t = np.where(same, mid, lo_t), np.where(same, hi_t, mid)
+    th = 0.5 * (lo_t + hi_t)
+    uv = (lo + th[:, None] * ld)[:, :2]
+    return np.where(ok, th, np.nan), uv
+
+
+def _view_rays(angle_deg, n=400, seed=0):
+    """Rays toward random points at mid-height over the quad's inner part, all at angle_deg
+    from its normal (a parallel bundle), from 0.5 above the quad's plane."""
+    rng = np.random.default_rng(seed)
+    a = np.radians(angle_deg)
+    d = np.array([np.sin(a) * np.cos(0.3), -np.cos(a), np.sin(a) * np.sin(0.3)])
+    target = np.column_stack([rng.uniform(-0.8, 0.8, n), np.full(n, 0.1), rng.uniform(-0.8, 0.8, n)])
+    return target - (0.4 / np.cos(a)) * d, np.broadcast_to(d, (n, 3)).copy()
+
+
+def _trace_each(tracer, orgs, dirs):
+    """Closest hits of rays with per-ray origins (Tracer takes one origin per batch):
+    (t, NaN for a miss; the primitive's (u, v))."""
+    n = len(dirs)
+    r = np.zeros(n, layout.RAY)
+    r["org"], r["dir"], r["tmin"], r["tmax"] = orgs, dirs, 0.0, np.inf
+    mf = cl.mem_flags
+    ctx = tracer.rt.context
+    rays = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=r)
+    out = np.zeros(n, layout.HIT)
+    hits = cl.Buffer(ctx, mf.WRITE_ONLY, out.nbytes)
+    tracer._k_closest(tracer.rt.queue, (n,), None, rays, hits, np.uint32(n), *tracer.up.geom)
+    cl.enqueue_copy(tracer.rt.queue, out, hits)
+    miss = out["prim"] == 0xFFFFFFFF
+    t = np.where(miss, np.nan, out["t"]).astype(np.float64)
+    return t, np.column_stack([out["b1"], out["b2"]])
+
+
+@pytest.mark.parametrize("method", ["maxmip", "search"])
+def test_analytic_sines_match_float64_root_finder(device, method):
+    d = tx.Displacement(_sines(), scale=0.2, method=method, steps=128, refine=8)
+    tracer = Tracer(_quad_scene(d), device)
+    angles = (0, 30, 60, 80, 89) if method == "maxmip" else (0, 30, 60, 80)
+    for ang in angles:
+        orgs, dirs = _view_rays(ang)
+        t, uv = _trace_each(tracer, orgs, dirs)
+        tr, uvr = quad_reference(d, orgs, dirs)
+        both = ~np.isnan(t) & ~np.isnan(tr)
+        agree = np.isnan(t) == np.isnan(tr)
+        tol = T_EXACT if method == "maxmip" else T_SEARCH
+        # The search may pick another crossing where the ray grazes a crest between two samples.
+        assert agree.mean() >= (1.0 if method == "maxmip" else 0.98), (method, ang, np.flatnonzero(~agree)[:5])
+        rel = np.abs(t[both] - tr[both]) / tr[both]
+        good = rel <= tol
+        assert good.mean() >= (0.995 if method == "maxmip" else 0.97), (method, ang, rel.max())
+        assert np.abs(uv[both][good] - uvr[both][good]).max() <= 20 * tol, (method, ang)
+
+
+def test_zero_height_renders_the_undisplaced_quad(device):
+    tex = _sines()
+    wood = tx.Texture.from_array(np.random.default_rng(0).random((8, 8, 3)).astype(np.float32))
+
+    def scene(disp):
+        s = tx.Scene(camera=tx.Camera(eye=(0.3, 2, 3), look_at=(0, 0, 0)),
+                     lights=[tx.PointLight(position=(1, 4, 2), intensity=(20, 20, 20))])
+        s.add(tx.Quad(*CORNERS, material=tx.Material(diffuse=wood, displacement=disp)))
+        return s
+    aovs = ("depth", "uv", "normal")
+    plain = tx.render(scene(None), 64, 48, device=device, aovs=aovs, jitter=False)
+    for method in ("search", "maxmip"):
+        img = tx.render(scene(tx.Displacement(tex, scale=0.0, method=method)), 64, 48, device=device, aovs=aovs,
+                        jitter=False)
+        assert not np.isnan(img.rgb).any()
+        np.testing.assert_array_equal(np.isnan(img.aov["depth"]), np.isnan(plain.aov["depth"]))
+        np.testing.assert_allclose(img.aov["depth"], plain.aov["depth"], rtol=1e-5, atol=0)
+        np.testing.assert_allclose(img.aov["uv"], plain.aov["uv"], atol=1e-5)
+        np.testing.assert_allclose(img.aov["normal"], plain.aov["normal"], atol=1e-6)
+        np.testing.assert_allclose(img.rgb, plain.rgb, atol=2e-3)
+
+
+@pytest.mark.parametrize("method", ["search", "maxmip"])
+@pytest.mark.parametrize("heights", ["zero", "one", "single"])
+def test_constant_maps_are_planes_at_their_height(device, method, heights):
+    """All-zero and all-one maps and a 1x1 texture: a plane at H, hit where the plane is."""
+    a = {"zero": np.zeros((4, 4)), "one": np.ones((4, 4)), "single": np.full((1, 1), 0.7)}[heights]
+    d = tx.Displacement(_tex(a), scale=0.3, offset=0.05, method=method, steps=4, refine=4)
+    level = 0.05 + 0.3 * float(a.flat[0])
+    tracer = Tracer(_quad_scene(d), device)
+    for ang in (0, 45, 85):
+        orgs, dirs = _view_rays(ang, n=64, seed=ang)
+        t, _ = _trace_each(tracer, orgs, dirs)
+        t_plane = (orgs[:, 1] - level) / -dirs[:, 1]
+        p = orgs + t_plane[:, None] * dirs
+        inside = (np.abs(p[:, 0]) < 0.999) & (np.abs(p[:, 2]) < 0.999)
+        assert not np.isnan(t[inside]).any(), (ang, heights)
+        np.testing.assert_allclose(t[inside], t_plane[inside], rtol=1e-5)
+
+
+@pytest.mark.parametrize("method", ["search", "maxmip"])
+def test_edge_rays(device, method):
+    """From inside the volume, parallel to the quad (inside and outside the slab), through
+    the volume past the surface: the float64 reference's answer, never NaN."""
+    d = tx.Displacement(_sines(16), scale=0.2, method=method, steps=256, refine=8)
+    tracer = Tracer(_quad_scene(d), device)
+    orgs = np.array([[0.1, 0.199, 0.2],      # inside the slab, above the surface: look down
+                     [0.1, 0.199, 0.2],      # inside, parallel to the quad
+                     [-3.0, 0.25, 0.3],      # parallel, above the slab: misses
+                     [-3.0, 0.1, 0.3],       # parallel through the slab: meets a bump
+                     [-3.0, 0.3, 0.0],       # through the volume's corner region, over every bump
+                     [0.0, 3.0, 0.0]])
+    dirs = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0],
+                     [1.0, -0.02, 0.0], [0.0, 1.0, 0.0]])     # last: points away
+    t, uv = _trace_each(tracer, orgs, dirs)
+    tr, _ = quad_reference(d, orgs, dirs, samples=20000)
+    assert not np.isnan(uv).any()
+    np.testing.assert_array_equal(np.isnan(t), np.isnan(tr))
+    both = ~np.isnan(tr)
+    np.testing.assert_allclose(t[both], tr[both], rtol=T_SEARCH)
+
+
+def test_self_shadowing_behind_a_ridge(device):
+    """A ridge along v at u = 0.5, 0.3 high; light low on the -x side: a point behind the
+    ridge (+x) is in shadow, one in front (-x) is lit, for both methods."""
+    n = 32
+    a = np.zeros((n, n))
+    a[:, 15:17] = 1.0
+    light = np.array([-3.0, 0.5, 0.0])
+    for method in ("search", "maxmip"):
+        d = tx.Displacement(_tex(a), scale=0.3, method=method, steps=64)
+        tracer = Tracer(_quad_scene(d), device)
+        pts = np.array([[0.3, 0.0, 0.0], [-0.3, 0.0, 0.0]]) + np.array([0, 1e-4, 0])
+        occ = [tracer.occluded(p, (light - p)[None])[0][0] for p in pts]
+        assert occ == [True, False], method
+
+
+def test_maxmip_never_misses_one_texel_spikes(device):
+    """One-texel spikes on a flat terrain, rays aimed at points just below each spike's top
+    from grazing directions: maxmip hits every one (conservative skipping); a coarse
+    linear search misses some (README's table counts them)."""
+    n = 64
+    a = np.zeros((n, n))
+    rng = np.random.default_rng(3)
+    ij = rng.integers(4, n - 4, (40, 2))
+    a[ij[:, 0], ij[:, 1]] = 1.0
+    targets = np.column_stack([-1 + 2 * (ij[:, 1] + 0.5) / n, np.full(len(ij), 0.2 * 0.9),
+                               1 - 2 * (1 - (ij[:, 0] + 0.5) / n)])     # v = 1 - (row + 0.5)/n, z = 1 - 2 v
+    dirs = np.tile([1.0, -0.12, 0.35], (len(ij), 1))
+    orgs = targets - 0.8 * dirs
+    tr, _ = quad_reference(tx.Displacement(_tex(a), scale=0.2), orgs, dirs, samples=40000)
+    assert not np.isnan(tr).any()
+    found = {}
+    for method, steps in (("maxmip", 1), ("search", 4)):
+        d = tx.Displacement(_tex(a), scale=0.2, method=method, steps=steps)
+        t, _ = _trace_each(Tracer(_quad_scene(d), device), orgs, dirs)
+        found[method] = ~np.isnan(t)
+    assert found["maxmip"].all()
+    assert not found["search"].all()
+
+
+def test_curved_shapes_match_their_tessellation(device):
+    """Displaced sphere and cylinder, searched on the device, against their tessellation
+    (4 vertices per texel): first hits and depths agree on nearly every pixel."""
+    tex = _sines(24, a=0.5, k=2.0)
+    depth = {}
+    for method in ("search", "tessellate"):
+        d = tx.Displacement(tex, scale=0.15, method=method, steps=64, refine=8, resolution=4)
+        s = tx.Scene(camera=tx.Camera(eye=(0, 0.5, 4), look_at=(0, 0, 0), fov_y=45))
+        s.add(tx.Sphere(center=(-0.8, 0, 0), radius=0.6, axis_z=(0, 1, 0), material=tx.Material(displacement=d)))
+        s.add(tx.Cylinder(radius=0.5, z_range=(-0.8, 0.8), origin=(0.8, 0, 0), axis_z=(0, 1, 0),
+                          material=tx.Material(displacement=d)))
+        img = tx.render(s, 64, 48, device=device, aovs=("depth",), jitter=False)
+        assert not np.isnan(img.rgb).any()
+        depth[method] = img.aov["depth"][..., 0]
+    a, b = depth["search"], depth["tessellate"]
+    same = np.isnan(a) == np.isnan(b)
+    assert same.mean() > 0.97
+    both = ~np.isnan(a) & ~np.isnan(b)
+    assert np.median(np.abs(a[both] - b[both]) / b[both]) < 2e-3
+
+
+def test_host_height_field_and_pyramid():
+    rng = np.random.default_rng(1)
+    h = rng.random((5, 7))
+    # Texel centres return the texels (row 0 on top, v = 0 at the bottom).
+    u = (np.arange(7) + 0.5) / 7
+    v = 1 - (np.arange(5) + 0.5) / 5
+    np.testing.assert_allclose(D.height(h, u[None, :], v[:, None]), h)
+    # The pyramid bounds the interpolant everywhere, for every wrap mode.
+    for wrap in ("repeat", "clamp", "mirror"):
+        pyr = D.minmax_pyramid(h, wrap)
+        assert pyr[-1].shape == (1, 1, 2)
+        uu, vv = rng.random(20000), rng.random(20000)
+        val = D.height(h, uu, vv, wrap)
+        cx = np.floor(uu * 7 + 0.5).astype(int)
+        cy = np.floor((1 - vv) * 5 + 0.5).astype(int)
+        for lv in pyr:
+            assert np.all(val >= lv[cy, cx, 0] - 1e-12) and np.all(val <= lv[cy, cx, 1] + 1e-12), wrap
+            cx, cy = cx // 2, cy // 2
+    # Gradient: central differences of the interpolant inside a cell.
+    gu, gv = D.height_gradient(h, 0.41, 0.37)
+    e = 1e-6
+    np.testing.assert_allclose(gu, (D.height(h, 0.41 + e, 0.37) - D.height(h, 0.41 - e, 0.37)) / (2 * e), rtol=1e-5)
+    np.testing.assert_allclose(gv, (D.height(h, 0.41, 0.37 + e) - D.height(h, 0.41, 0.37 - e)) / (2 * e), rtol=1e-5)
+
+
+def test_tessellation_lies_on_the_displaced_surface():
+    tex = _sines(8)
+    d = tx.Displacement(tex, scale=0.1, method="tessellate", resolution=2)
+    shapes = [tx.Quad(*CORNERS, material=tx.Material(displacement=d)),
+              tx.Sphere(radius=0.5, material=tx.Material(displacement=d)),
+              tx.Cylinder(radius=0.5, theta_range=(0, 270), material=tx.Material(displacement=d))]
+    for s in shapes:
+        m = D.tessellate(s)
+        assert m.faces.shape[0] > 0 and np.all(np.isfinite(m.positions))
+        uv = m.uvs if not isinstance(s, tx.Quad) else None
+        if uv is not None:
+            p, _ = D.displaced_point(s, uv[:, 0], uv[:, 1])
+            np.testing.assert_allclose(m.positions, p, atol=1e-12)
+        np.testing.assert_allclose(np.linalg.norm(m.normals, axis=1), 1, atol=1e-12)
+
+
+def test_bad_input_names_the_field():
+    tex = _sines(4)
+    for kw, field in (({"method": "parallax"}, "method"), ({"steps": 0}, "steps"), ({"refine": -1}, "refine"),
+                      ({"scale": float("nan")}, "scale"), ({"adaptive": "yes"}, "adaptive"),
+                      ({"resolution": 99}, "resolution")):
+        with pytest.raises(tx.SceneError, match=field):
+            tx.Displacement(tex, **kw)
+    from texray.compile import compile_scene
+    d = tx.Displacement(tex, scale=0.1)
+    s = tx.Scene(camera=tx.Camera())
+    s.add(tx.Quad((0, 0, 0), (1, 0, 0), (1.5, 0, 1), (0, 0, 1), material=tx.Material(displacement=d), name="kite"))
+    with pytest.raises(tx.SceneError, match="kite.*parallelogram"):
+        compile_scene(s)
+    s = tx.Scene(camera=tx.Camera())
+    s.add(tx.Sphere(material=tx.Material(displacement=tx.Displacement(tex, method="maxmip")), name="ball"))
+    with pytest.raises(tx.SceneError, match="ball.*maxmip"):
+        compile_scene(s)
+    s = tx.Scene(camera=tx.Camera())
+    s.add(tx.Mesh(np.eye(3), np.array([[0, 1, 2]]), material=tx.Material(displacement=d), name="tri"))
+    with pytest.raises(tx.SceneError, match="tri.*displacement"):
+        compile_scene(s)
+    with pytest.raises(tx.SceneError, match="displacement"):
+        tx.Material(displacement="height.png").validate()
