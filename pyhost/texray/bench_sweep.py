@@ -143,3 +143,125 @@ def plot(sweeps, path):
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return True
+
+
+# --- Displacement (issue 7): the search's N and M, maxmip, against the tessellation ----
+DISP_STEPS = (4, 8, 16, 32, 64, 128)
+DISP_REFINE = (0, 4, 8)
+
+
+def displacement_scenes(size=256):
+    """The sweep's scenes, built in code: a brick wall seen at grazing angles, a planet
+    with mountains, a terrain with one-texel spikes; each {name: (scene, Displacement
+    factory(method, **knobs))}."""
+    from .displace import Displacement
+    from .scene import Camera, Material, PointLight, Quad, Scene, Sphere
+    from .texture import Texture
+    rng = np.random.default_rng(7)
+    y, x = np.mgrid[0:size, 0:size] / size
+    row = np.floor(y * 8)
+    bx = (x * 4 + 0.5 * (row % 2)) % 1
+    by = (y * 8) % 1
+    brick = np.minimum(np.minimum(bx, 1 - bx) * 4, np.minimum(by, 1 - by) * 2).clip(0, 0.1) * 10
+    freq = np.fft.fftfreq(size)
+    spec = rng.normal(size=(size, size)) + 1j * rng.normal(size=(size, size))
+    spec /= np.maximum(np.hypot(freq[None, :], freq[:, None]), 1.0 / size) ** 2.2
+    mountains = np.real(np.fft.ifft2(spec))
+    mountains = (mountains - mountains.min()) / np.ptp(mountains)
+    terrain = 0.25 * mountains
+    ij = rng.integers(0, size, (size // 4, 2))
+    terrain[ij[:, 0], ij[:, 1]] = 1.0                      # one-texel spikes
+    light = [PointLight(position=(3, 4, 3), intensity=(25, 25, 25))]
+
+    def tex(a):
+        return Texture.from_array(a.astype(np.float32)[:, :, None], wrap="clamp")
+
+    def factory(t, scale):
+        return lambda method, **kw: Displacement(t, scale=scale, method=method, **kw)
+
+    out = {}
+    wall = factory(tex(brick), 0.04)
+    out["brick wall (grazing)"] = (lambda d: _one(Scene(camera=Camera(eye=(-1.6, 0.25, 0.9), look_at=(0.4, 0.0, -0.6),
+                                                                      fov_y=40), lights=light),
+                                                  Quad((-1, -0.6, 0), (1, -0.6, 0), (1, 0.6, 0), (-1, 0.6, 0),
+                                                       material=Material(diffuse=(0.7, 0.35, 0.25),
+                                                                         displacement=d))), wall)
+    planet = factory(Texture.from_array(mountains.astype(np.float32)[:, :, None]), 0.08)
+    out["planet"] = (lambda d: _one(Scene(camera=Camera(eye=(0, 0.4, 3.2), look_at=(0, 0, 0), fov_y=35), lights=light),
+                                    Sphere(radius=0.8, axis_z=(0, 1, 0), material=Material(displacement=d))), planet)
+    spikes = factory(tex(terrain), 0.3)
+    out["terrain (spikes)"] = (lambda d: _one(Scene(camera=Camera(eye=(0, 0.9, 1.9), look_at=(0, 0, -0.2), fov_y=45),
+                                                    lights=light),
+                                              Quad((-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1),
+                                                   material=Material(diffuse=(0.5, 0.6, 0.4), displacement=d))),
+                               spikes)
+    return out
+
+
+def _one(scene, obj):
+    scene.add(obj)
+    return scene
+
+
+def displacement_sweep(device=None, width=384, height=288, repeat=3, size=256, steps=DISP_STEPS,
+                       refine=DISP_REFINE):
+    """{scene: [row]}: the tessellated reference (one vertex per texel) and every search
+    (N, M), adaptive N and maxmip setting: frame time (median of ``repeat`` renders at 1
+    spp, pixel centres; end to end: scene compile, BVH, upload, render), its render part,
+    device memory, RMSE against the reference and the fraction of pixels whose first hit
+    differs (a different object, a hit against a miss, or depth off by more than 1%)."""
+    import time
+
+    from .render import render
+    result = {}
+    for name, (make, disp) in displacement_scenes(size).items():
+        def run(d):
+            times, img = [], None
+            for _ in range(repeat):
+                t0 = time.perf_counter()
+                img = render(make(d), width, height, 1, device=device, jitter=False, aovs=("depth", "object_id"))
+                times.append(time.perf_counter() - t0)
+            return img, float(np.median(times))
+        ref, ref_s = run(disp("tessellate"))
+        rows = [_disp_row("tessellate (1 vertex/texel)", ref, ref_s, ref)]
+        for n in steps:
+            for m in refine:
+                img, s = run(disp("search", steps=n, refine=m))
+                rows.append(_disp_row(f"search N={n} M={m}", img, s, ref))
+        for n in (8, 32):
+            img, s = run(disp("search", steps=n, refine=8, adaptive=True))
+            rows.append(_disp_row(f"search adaptive N={n} M=8", img, s, ref))
+        if "planet" not in name:
+            img, s = run(disp("maxmip"))
+            rows.append(_disp_row("maxmip", img, s, ref))
+        result[name] = rows
+    return result
+
+
+def _disp_row(label, img, seconds, ref):
+    da, db = img.aov["depth"][..., 0], ref.aov["depth"][..., 0]
+    oa, ob = img.aov["object_id"][..., 0], ref.aov["object_id"][..., 0]
+    with np.errstate(invalid="ignore"):
+        wrong = (oa != ob) | (np.isnan(da) != np.isnan(db)) | (np.abs(da - db) > 0.01 * db)
+    return {"setting": label, "time_s": seconds, "render_s": img.stats["render_s"],
+            "device_mib": sum(img.stats["device_bytes"].values()) / 2 ** 20,
+            "rmse": error_metrics(img.rgb, ref.rgb)["rmse"], "wrong_hit": float(np.mean(wrong))}
+
+
+def displacement_table(result):
+    """Markdown table of :func:`displacement_sweep`."""
+    lines = []
+    for name, rows in result.items():
+        lines += [f"**{name}**", "", "| setting | frame s | render s | device MiB | RMSE | wrong first hit |",
+                  "|---|---|---|---|---|---|"]
+        for r in rows:
+            lines.append(f"| {r['setting']} | {r['time_s']:.3f} | {r['render_s']:.3f} | {r['device_mib']:.2f} | "
+                         f"{r['rmse']:.4f} | {100 * r['wrong_hit']:.2f}% |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":                      # python -m texray.bench_sweep [WIDTH HEIGHT]
+    import sys
+    w, h = (int(sys.argv[1]), int(sys.argv[2])) if len(sys.argv) > 2 else (384, 288)
+    print(displacement_table(displacement_sweep(width=w, height=h)))
