@@ -37,23 +37,46 @@ def _sample_positions(rt, spp, width=3, height=2, seed=7):
     return np.array(out)
 
 
-@pytest.mark.parametrize("spp", [1, 2, 4, 5, 7, 16, 30])
+def _grid(spp):
+    """The kernel's m x n grid: m the largest divisor of spp not above sqrt(spp)."""
+    m = int(np.floor(np.sqrt(spp)))
+    while spp % m:
+        m -= 1
+    return m, spp // m
+
+
+@pytest.mark.parametrize("spp", [1, 2, 4, 5, 7, 12, 16, 30, 32])
 def test_samples_are_stratified(rt, spp):
     pos = _sample_positions(rt, spp)
     assert np.all((pos >= 0) & (pos < 1))
-    m = int(np.floor(np.sqrt(spp)))
-    n = -(-spp // m)
+    m, n = _grid(spp)
+    assert m * n == spp
     for pixel in range(pos.shape[1]):
         x, y = pos[:, pixel, 0], pos[:, pixel, 1]
-        # N samples are the first N of an m x n pattern (m = floor(sqrt N), n = ceil(N / m)):
-        # in each 1-D projection no two share one of the m*n intervals (float32 slack 1e-5) ...
+        # in each 1-D projection no two samples share one of the N intervals (float32 slack 1e-5) ...
         for v in (x, y):
-            lo = np.floor(v * m * n + 1e-5).astype(int)
-            hi = np.floor(v * m * n - 1e-5).astype(int)
+            lo = np.floor(v * spp + 1e-5).astype(int)
+            hi = np.floor(v * spp - 1e-5).astype(int)
             assert len(set(lo.tolist())) == spp or len(set(hi.tolist())) == spp, (spp, pixel, v)
-        # ... and in 2-D no two share a cell of the m x n grid.
+        # ... and every cell of the m x n grid holds exactly one sample: the pattern covers
+        # the whole pixel (Kensler's ceil(N/m) rows left part of it unsampled for N = 32).
         cells = np.floor(x * m).astype(int) * n + np.floor(y * n).astype(int)
-        assert len(set(cells.tolist())) == spp, (spp, pixel)
+        assert sorted(cells.tolist()) == list(range(spp)), (spp, pixel)
+
+
+@pytest.mark.parametrize("spp", [3, 7, 32, 35])
+def test_samples_are_uniform_over_the_pixel(rt, spp):
+    """Unbiased: over many pixels' patterns the samples are uniform in the pixel. The
+    quadrant fractions are 1/4 within 5 standard deviations of a binomial count."""
+    pos = _sample_positions(rt, spp, width=48, height=32).reshape(-1, 2)
+    total = len(pos)
+    for qx in (0, 1):
+        for qy in (0, 1):
+            inside = np.mean(((pos[:, 0] >= 0.5) == qx) & ((pos[:, 1] >= 0.5) == qy))
+            assert abs(inside - 0.25) < 5 * np.sqrt(0.25 * 0.75 / total), (spp, qx, qy, inside)
+    # the corner band the old 5 x 7 grid never reached for 32 spp
+    corner = np.mean((pos[:, 0] > 0.6) & (pos[:, 1] > 6 / 7))
+    assert abs(corner - 0.4 / 7) < 5 * np.sqrt(0.057 / total) + 1e-3, (spp, corner)
 
 
 def test_pixels_get_different_patterns_and_seeds_are_deterministic(rt):
