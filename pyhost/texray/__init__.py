@@ -11,12 +11,12 @@ from .displace import Displacement
 from .device import DeviceInfo, devices
 from .errors import BuildError, DeviceError, SceneError, TexrayError
 from .mapping import Projection, UVTransform
-from .render import Image, render
+from .render import Image, render, render_to_file
 from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sphere, Texture
 from .texture import Label
 from .transform import Transform
 
 __all__ = ["Bump", "Displacement", "NormalMap", "BuildError", "Camera", "Cylinder", "DeviceError", "DeviceInfo", "Image", "Label", "Material", "Mesh",
            "PointLight", "Projection", "Quad", "Scene", "SceneError", "Sphere", "TexrayError", "Texture", "Transform", "UVTransform", "devices",
-           "render"]
+           "render", "render_to_file"]
 __version__ = "0.1.0"
