@@ -13,27 +13,38 @@
  * shading normal does (the flat triangle's side test would bring the facets
  * back). */
 
+/* The shadow ray's origin for the surface point s (see above); *lifted says whether the
+ * side test uses the shading normal. */
+inline float3 shadow_origin(const Surface* s, int* lifted)
+{
+    float3 lift = vload3(0, s->lift);
+    *lifted = dot3(lift, lift) > 16.0f * s->offset * s->offset;   /* beyond p's own rounding */
+    return offset_point(vload3(0, s->p) + lift, vload3(0, s->ng), s->offset);
+}
+
+/* 1 when the light at lpos is visible from the shadow origin org of s. */
+inline uchar light_visible(const Surface* s, float3 org, int lifted, float3 lpos, TX_GEOM_PARAMS)
+{
+    float3 d = lpos - org;
+    if (dot3(d, lifted ? vload3(0, s->ns) : vload3(0, s->ng)) <= 0.0f) return 0;
+#if TX_SHADOWS
+    return !bvh_any(TX_GEOM_ARGS, org, d, 0.0f, 1.0f);
+#else
+    return 1;
+#endif
+}
+
 __kernel void shadow(__global const Surface* surf, __global uchar* vis, uint n, TX_GEOM_PARAMS,
                      __global const PointLight* lights, uint nlights)
 {
     uint gid = get_global_id(0);
     if (gid >= n) return;
-    __global const Surface* s = surf + gid;
-    if (!s->valid) return;
-    float3 ng = vload3(0, s->ng);
-    float3 lift = vload3(0, s->lift), ns = vload3(0, s->ns);
-    int lifted = dot3(lift, lift) > 16.0f * s->offset * s->offset;   /* beyond p's own rounding */
-    float3 org = offset_point(vload3(0, s->p) + lift, ng, s->offset);
+    if (!surf[gid].valid) return;
+    Surface s = surf[gid];
+    int lifted;
+    float3 org = shadow_origin(&s, &lifted);
     FOR_EACH_LIGHT(i, nlights) {
-        float3 d = vload3(0, lights[i].position) - org;
-        uchar v = 0;
-        if (dot3(d, lifted ? ns : ng) > 0.0f) {
-#if TX_SHADOWS
-            v = !bvh_any(TX_GEOM_ARGS, org, d, 0.0f, 1.0f);
-#else
-            v = 1;
-#endif
-        }
-        vis[(size_t)gid * nlights + i] = v;
+        vis[(size_t)gid * nlights + i] = light_visible(&s, org, lifted, vload3(0, lights[i].position),
+                                                       TX_GEOM_ARGS);
     }
 }

@@ -28,17 +28,20 @@ inline void write_miss_aovs(__global float* aov, uint gid)
     a[AOV_OBJECT_ID] = -1.0f;
 }
 
-__kernel void surface(__global const Ray* rays, __global const Hit* hits, __global Surface* out, uint n,
-                      TX_GEOM_PARAMS, __global const TriShade* tri_shade, __global const QuadShade* quad_shade,
-                      __global const float* normals, __global const float* uvs,
-                      __global const Material* materials, __global const TextureInfo* textures,
-                      __global const half* texels, __global const ObjectInfo* objects, __global float* aov,
-                      __constant Camera* cam, uint image_w, uint image_h, uint spp)
+/* The surface stage's parameters and arguments (besides the geometry's). */
+#define TX_SURFACE_PARAMS __global const TriShade* tri_shade, __global const QuadShade* quad_shade, \
+    __global const float* normals, __global const float* uvs, __global const Material* materials, \
+    __global const TextureInfo* textures, __global const half* texels, __global const ObjectInfo* objects, \
+    __constant Camera* cam, uint image_w, uint image_h, uint spp
+#define TX_SURFACE_ARGS tri_shade, quad_shade, normals, uvs, materials, textures, texels, objects, \
+    cam, image_w, image_h, spp
+
+/* Evaluates the hit h of the ray (org, dir) into *s (s->valid = 0 for a miss); with
+ * TX_AOVS and aov != NULL also writes record gid of the AOV buffer. */
+inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
+                         __global float* aov, uint gid, Surface* s)
 {
-    uint gid = get_global_id(0);
-    if (gid >= n) return;
-    __global const Hit* h = hits + gid;
-    __global Surface* s = out + gid;
+    const HitRec* h = &hit;
     if (h->prim == TX_MISS) {
         s->valid = 0u;
 #if TX_AOVS
@@ -47,7 +50,6 @@ __kernel void surface(__global const Ray* rays, __global const Hit* hits, __glob
         return;
     }
     uint kind = h->prim >> HIT_KIND_SHIFT, idx = h->prim & HIT_INDEX_MASK;
-    float3 org = ray_org(rays + gid), dir = ray_dir(rays + gid);
     Geom g;
     uint material = 0u, object = 0u, prim = 0u;
     int vertex_normal = 0;
@@ -186,4 +188,17 @@ __kernel void surface(__global const Ray* rays, __global const Hit* hits, __glob
 #if TX_AOVS
     if (aov) write_aovs(aov, gid, &g, ns, h->t * sqrt(dot3(dir, dir)), prim, object);
 #endif
+}
+
+__kernel void surface(__global const Ray* rays, __global const Hit* hits, __global Surface* out, uint n,
+                      TX_GEOM_PARAMS, TX_SURFACE_PARAMS, __global float* aov)
+{
+    uint gid = get_global_id(0);
+    if (gid >= n) return;
+    __global const Hit* gh = hits + gid;
+    HitRec h = { gh->t, gh->b1, gh->b2, gh->prim };
+    Surface s;
+    surface_eval(ray_org(rays + gid), ray_dir(rays + gid), h, TX_GEOM_ARGS, TX_SURFACE_ARGS, aov, gid, &s);
+    if (s.valid) out[gid] = s;
+    else out[gid].valid = 0u;
 }

@@ -34,3 +34,4 @@
 #include "surface.cl"
 #include "shadow.cl"
 #include "shade.cl"
+#include "fused.cl"

@@ -28,9 +28,11 @@ def scene_rows(dev):
         gen = r.get("generic")
         b = dev.get("builds", {}).get(name, {})
         bs, bg = b.get("specialized"), b.get("generic")
-        st = sp["stage_mrays_s"]
+        stg = r.get("stages", sp)
+        st = stg["stage_mrays_s"]
         rows.append([
             name, f"{r['width']}x{r['height']}", str(r["spp"]), _spread_ms(sp["frame_s"]),
+            _spread_ms(stg["frame_s"]) if "stages" in r else "-",
             _spread_ms(gen["frame_s"]) if gen else "-",
             f"{r['generic_over_specialized']:.2f}" if gen else "-",
             " / ".join(f"{st[k]:.1f}" if st.get(k) else "-" for k in STAGES),
@@ -41,8 +43,8 @@ def scene_rows(dev):
     return rows
 
 
-SCENE_HEADER = ["scene", "size", "spp", "specialized ms (min-max)", "generic ms (min-max)", "generic/spec.",
-                "M/s per stage: " + " / ".join(STAGES), "build spec. cold/warm s", "build generic cold/warm s",
+SCENE_HEADER = ["scene", "size", "spp", "specialized ms (min-max)", "staged ms (min-max)", "generic ms (min-max)",
+                "generic/spec.", "staged M/s per stage: " + " / ".join(STAGES), "build spec. cold/warm s", "build generic cold/warm s",
                 "device MiB scene + rays"]
 
 
@@ -117,7 +119,9 @@ def markdown(results, plot_path=None) -> str:
             md += [rays_line(dev["rays"]), ""]
         if dev.get("scenes"):
             md += [_md_table(SCENE_HEADER, scene_rows(dev)), "",
-                   "Stage M/s: camera samples per second through each stage (shadow: shadow rays).", ""]
+                   "Specialized and generic: the fused pipeline (one kernel per pixel); staged: the five "
+                   "stage kernels, each timed alone. Stage M/s: camera samples per second through each stage "
+                   "(shadow: shadow rays).", ""]
         for scene, sw in dev.get("sweeps", {}).items():
             md += [f"### Sweep: {scene} {sw['width']}x{sw['height']} against a {sw['ref_spp']}-spp reference", "",
                    _md_table(SWEEP_HEADER, sweep_rows(sw)), ""]
@@ -142,8 +146,10 @@ def _metrics(dev):
         m[f"{name} frame ms"] = (1e3 * r["specialized"]["frame_s"]["median"], False)
         if r.get("generic"):
             m[f"{name} generic frame ms"] = (1e3 * r["generic"]["frame_s"]["median"], False)
+        if r.get("stages"):
+            m[f"{name} staged frame ms"] = (1e3 * r["stages"]["frame_s"]["median"], False)
         for k in STAGES:
-            s = r["specialized"]["stage_s"].get(k)
+            s = r.get("stages", r["specialized"])["stage_s"].get(k)
             if s and s["median"] > 0:
                 m[f"{name} {k} ms"] = (1e3 * s["median"], False)
     for name, b in dev.get("builds", {}).items():

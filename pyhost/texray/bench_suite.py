@@ -59,14 +59,17 @@ def frame_stats(runs, samples, shadow_rays):
 
 
 def bench_scene(scene, compiled, device, width, height, spp, repeat, generic=True, local_size=None):
-    """Frames of one scene on one device: specialized (and generic) programs."""
+    """Frames of one scene on one device: the specialized program (fused pipeline, and the
+    staged one for the per-stage times) and the generic program (fused)."""
     from .render import render
     samples = width * height * spp
     shadow_rays = samples * len(compiled.lights) if compiled.features.shadows else 0
     out = {"width": width, "height": height, "spp": spp, "lights": int(len(compiled.lights))}
-    variants = [("specialized", True)] + ([("generic", False)] if generic else [])
-    for name, specialize in variants:
-        kw = dict(device=device, compiled=compiled, specialize=specialize, local_size=local_size)
+    variants = [("specialized", True, "fused"), ("stages", True, "stages")]
+    if generic:
+        variants.append(("generic", False, "fused"))
+    for name, specialize, pipeline in variants:
+        kw = dict(device=device, compiled=compiled, specialize=specialize, local_size=local_size, pipeline=pipeline)
         first = render(scene, width, height, spp, **kw)                    # warm-up (and build)
         runs = [render(scene, width, height, spp, **kw).stats for _ in range(repeat)]
         r = frame_stats(runs, samples, shadow_rays)
@@ -75,6 +78,7 @@ def bench_scene(scene, compiled, device, width, height, spp, repeat, generic=Tru
         r["ray_buffer_bytes"] = first.stats["ray_buffer_bytes"]
         r["features"] = {k: v for k, v in vars(first.stats["features"]).items()}
         out[name] = r
+    out["stages_over_fused"] = out["stages"]["frame_s"]["median"] / out["specialized"]["frame_s"]["median"]
     if generic:
         out["generic_over_specialized"] = (out["generic"]["frame_s"]["median"]
                                            / out["specialized"]["frame_s"]["median"])

@@ -80,7 +80,7 @@ class _Uploaded:
 
 def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=True, shadows=True,
            aovs=(), specialize=True, local_size=None, memory_limit=None, tile_pixels=None, progress=None,
-           sink=None, compiled=None, texture_filter=None) -> Image:
+           sink=None, compiled=None, texture_filter=None, pipeline="fused") -> Image:
     """Render ``scene`` to a linear RGB image.
 
     spp: samples per pixel (correlated multi-jittered within the pixel, box
@@ -90,6 +90,10 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     pixel-centre rays and returned in ``image.aov[name]`` as float32 (H, W, C)
     arrays (NaN, or -1 for the ids, where the ray hits nothing).
     device: see :func:`texray.device.select_device`.
+    pipeline: "fused" (default) runs every stage in one kernel per pixel, up to
+    MAX_FUSED_SAMPLES samples of a tile per launch; "stages" runs the five
+    stage kernels in turn with per-ray records in device memory between them,
+    so each stage is timed on its own (``stats["stage_s"]``). Same image.
     specialize: compile the kernels for exactly the features the scene uses
     (default); False uses the one generic program with every feature compiled
     in (same image; the benchmark's baseline).
@@ -145,18 +149,23 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     local = rt.local_size(local_size)
     t_built = time.perf_counter()
 
+    if pipeline not in PIPELINES:
+        raise SceneError(f"render: pipeline: expected one of {', '.join(PIPELINES)}, got {pipeline!r}")
+    fused = pipeline == "fused"
     nl = max(len(cs.lights), 1)
-    per_ray = _RAY_BYTES + nl + (4 * layout.AOV_FLOATS if aovs else 0)
+    # per pixel of a tile: the accumulator; the staged pipeline (and the AOV pass) add the records
+    per_ray = 16 + (0 if fused and not aovs else _RAY_BYTES - 16 + nl) + (4 * layout.AOV_FLOATS if aovs else 0)
     rows = plan_rows(width, height, per_ray, sum(cs.device_bytes().values()), rt.device,
                      memory_limit=memory_limit, tile_pixels=tile_pixels)
     n_max = rows * width
     up = _Uploaded(rt.context, cs)
     mf = cl.mem_flags
     try:
-        rays = cl.Buffer(rt.context, mf.READ_WRITE, n_max * layout.RAY.itemsize)
-        hits = cl.Buffer(rt.context, mf.READ_WRITE, n_max * layout.HIT.itemsize)
-        surf = cl.Buffer(rt.context, mf.READ_WRITE, n_max * layout.SURFACE.itemsize)
-        vis = cl.Buffer(rt.context, mf.READ_WRITE, n_max * nl)
+        staged = not fused or aovs
+        rays = cl.Buffer(rt.context, mf.READ_WRITE, n_max * layout.RAY.itemsize) if staged else None
+        hits = cl.Buffer(rt.context, mf.READ_WRITE, n_max * layout.HIT.itemsize) if staged else None
+        surf = cl.Buffer(rt.context, mf.READ_WRITE, n_max * layout.SURFACE.itemsize) if staged else None
+        vis = cl.Buffer(rt.context, mf.READ_WRITE, n_max * nl) if not fused else None
         accum = cl.Buffer(rt.context, mf.READ_WRITE, n_max * 16)
         aov_buf = cl.Buffer(rt.context, mf.WRITE_ONLY, n_max * 4 * layout.AOV_FLOATS) if aovs else None
         cam = np.zeros(1, layout.CAMERA)
@@ -167,24 +176,28 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         raise DeviceError(f"render: out of device memory for {n_max} rays per tile; pass a smaller "
                           f"tile_pixels ({e})") from None
 
-    k = {name: cl.Kernel(prg, name) for name in STAGES}
+    k = {name: cl.Kernel(prg, name) for name in STAGES + ("render_fused",)}
     q = rt.queue
     img_rows = rows if sink is not None else height      # with a sink, only one band is kept
     out = np.empty((img_rows, width, 4), np.float32)
     aov_out = np.empty((img_rows, width, layout.AOV_FLOATS), np.float32) if aovs else None
-    events = {name: [] for name in STAGES}
+    events = {name: [] for name in (("render_fused",) if fused else STAGES)}
+    if fused and aovs:
+        events.update({name: [] for name in ("raygen", "intersect", "surface")})
     u32 = np.uint32
-    passes, total_passes = 0, ((height + rows - 1) // rows) * (spp + bool(aovs))
+    per_launch = max(1, min(spp, MAX_FUSED_SAMPLES // n_max)) if fused else 1
+    launches = (spp + per_launch - 1) // per_launch
+    passes, total_passes = 0, ((height + rows - 1) // rows) * (launches + bool(aovs))
+    surface_args = (up.shade, up.quad_shade, up.normals, up.uvs, up.materials, up.textures, up.texels, up.objects,
+                    cam_buf, u32(width), u32(height), u32(spp))
 
     def trace(gsize, n, y0, sample, jit, aov):
         events["raygen"].append(k["raygen"](q, gsize, lsize, rays, cam_buf, u32(width), u32(height), u32(0),
                                             u32(y0), u32(width), u32(n), u32(sample), u32(spp),
                                             u32(seed & 0xFFFFFFFF), u32(jit)))
         events["intersect"].append(k["intersect"](q, gsize, lsize, rays, hits, u32(n), *up.geom))
-        events["surface"].append(k["surface"](q, gsize, lsize, rays, hits, surf, u32(n), *up.geom, up.shade,
-                                              up.quad_shade, up.normals, up.uvs, up.materials, up.textures,
-                                              up.texels, up.objects, aov, cam_buf, u32(width), u32(height),
-                                              u32(spp)))
+        events["surface"].append(k["surface"](q, gsize, lsize, rays, hits, surf, u32(n), *up.geom,
+                                              *surface_args, aov))
 
     for y0 in range(0, height, rows):
         tile_rows = min(rows, height - y0)
@@ -192,7 +205,16 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         gsize, lsize = rt.launch_size(n, local)
         oy = 0 if sink is not None else y0
         cl.enqueue_fill_buffer(q, accum, np.float32(0), 0, n * 16)
-        for sample in range(spp):
+        for first in range(0, spp, per_launch) if fused else ():
+            count = min(per_launch, spp - first)
+            events["render_fused"].append(k["render_fused"](
+                q, gsize, lsize, accum, u32(n), u32(y0), u32(first), u32(count), u32(seed & 0xFFFFFFFF),
+                u32(jitter), *up.geom, *surface_args, up.lights, up.nlights, cs.ambient, cs.background))
+            passes += 1
+            if progress is not None:
+                events["render_fused"][-1].wait()
+                progress(passes / total_passes)
+        for sample in range(spp) if not fused else ():
             trace(gsize, n, y0, sample, jitter, None)
             if up.nlights:
                 events["shadow"].append(k["shadow"](q, gsize, lsize, surf, vis, u32(n), *up.geom,
@@ -229,7 +251,7 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         "render_s": t_end - t_built, "total_s": t_end - t_start, "stage_s": stage_s,
         "tile_rows": rows, "tiles": (height + rows - 1) // rows, "local_size": local,
         "device_bytes": cs.device_bytes(), "ray_buffer_bytes": n_max * per_ray,
-        "features": cs.features, "specialized": bool(specialize),
+        "features": cs.features, "specialized": bool(specialize), "pipeline": pipeline,
     }
     return Image(rgb=rgb, aov=aov, stats=stats)
 
@@ -248,6 +270,11 @@ def generic_features(needed: Features) -> Features:
     g = Features.generic(stack_size=max(128, needed.stack_size))
     return dataclasses.replace(g, shadows=needed.shadows, aovs=needed.aovs)
 
+
+PIPELINES = ("fused", "stages")
+# Samples per launch of the fused kernel (pixels x samples): bounds a launch's run time
+# like MAX_TILE_PIXELS does for the stage kernels.
+MAX_FUSED_SAMPLES = 1 << 22
 
 # The most rays in flight per launch: bounds a launch's run time (GPU display watchdogs
 # kill kernels after ~2 s; 2^20 incoherent rays take a few ms on a GPU, ~0.5 s on PoCL).

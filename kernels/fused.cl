@@ -1,0 +1,39 @@
+#line 2 "fused.cl"
+/* All five stages in one kernel: each work-item takes one pixel of the tile
+ * through `nsamples` samples (raygen -> closest hit -> surface -> shadow rays
+ * -> shading) and adds their sum to the pixel's accumulator. Same functions,
+ * same samples, same image as the staged pipeline, without the per-ray
+ * records between stages in global memory; the stage kernels stay for timing
+ * each stage alone and for the AOV pass. */
+
+__kernel void render_fused(__global float4* accum, uint n, uint y0, uint sample0, uint nsamples, uint seed,
+                           uint jitter,
+                           TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
+                           __global const PointLight* lights, uint nlights, float4 ambient, float4 background)
+{
+    uint gid = get_global_id(0);
+    if (gid >= n) return;
+    uint px = gid % image_w, py = y0 + gid / image_w;
+    float3 sum = (float3)(0.0f);
+    for (uint k = 0; k < nsamples; ++k) {
+        float3 org, dir;
+        camera_ray(cam, image_w, image_h, px, py, sample0 + k, spp, seed, jitter, &org, &dir);
+        HitRec h = bvh_closest(TX_GEOM_ARGS, org, dir, 0.0f, INFINITY);
+        Surface s;
+        surface_eval(org, dir, h, TX_GEOM_ARGS, TX_SURFACE_ARGS, (__global float*)0, gid, &s);
+        float3 c = background.xyz;
+        if (s.valid) {
+            float3 v = -normalize3(dir);
+            c = ambient.xyz * vload3(0, s.kd);
+            int lifted;
+            float3 sorg = shadow_origin(&s, &lifted);
+            FOR_EACH_LIGHT(i, nlights) {
+                float3 lpos = vload3(0, lights[i].position);
+                if (light_visible(&s, sorg, lifted, lpos, TX_GEOM_ARGS))
+                    c += light_term(&s, v, lpos, vload3(0, lights[i].intensity));
+            }
+        }
+        sum += c;
+    }
+    accum[gid] += (float4)(sum, (float)nsamples);
+}
