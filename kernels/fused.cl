@@ -14,10 +14,12 @@ __kernel void render_fused(__global float4* accum, uint n, uint y0, uint sample0
     uint gid = get_global_id(0);
     if (gid >= n) return;
     uint px = gid % image_w, py = y0 + gid / image_w;
+    uint pattern = pixel_pattern(image_w, px, py, seed), grid_m = cmj_grid_m(spp);
     float3 sum = (float3)(0.0f);
     for (uint k = 0; k < nsamples; ++k) {
+        float2 j = jitter ? cmj_sample_m(sample0 + k, spp, grid_m, pattern) : (float2)(0.5f, 0.5f);
         float3 org, dir;
-        camera_ray(cam, image_w, image_h, px, py, sample0 + k, spp, seed, jitter, &org, &dir);
+        camera_ray(cam, image_w, image_h, px, py, j, &org, &dir);
         HitRec h = bvh_closest(TX_GEOM_ARGS, org, dir, 0.0f, INFINITY);
         Surface s;
         surface_eval(org, dir, h, TX_GEOM_ARGS, TX_SURFACE_ARGS, (__global float*)0, gid, &s);

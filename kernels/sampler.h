@@ -43,12 +43,18 @@ inline float cmj_randfloat(uint i, uint p)
  * is never sampled and the estimate is biased (the bench's spp sweep showed 32
  * spp further from the reference than 16). A prime N gets a 1 x N grid: still
  * one sample per 1/N band in each axis, and unbiased. */
-inline float2 cmj_sample(uint s, uint N, uint p)
+inline uint cmj_grid_m(uint N)
 {
     uint m = (uint)sqrt((float)N);
     while (m * m > N) --m;
     while ((m + 1u) * (m + 1u) <= N) ++m;
     while (N % m) --m;
+    return m;
+}
+
+/* cmj_sample with the grid's m = cmj_grid_m(N) computed by the caller (once per pixel). */
+inline float2 cmj_sample_m(uint s, uint N, uint m, uint p)
+{
     uint n = N / m;
     s = cmj_permute(s, N, p * 0x51633e2du);
     uint sx = cmj_permute(s % m, m, p * 0x68bc21ebu);
@@ -57,6 +63,11 @@ inline float2 cmj_sample(uint s, uint N, uint p)
     float jy = cmj_randfloat(s, p * 0x368cc8b7u);
     return (float2)(((float)(s % m) + ((float)sy + jx) / (float)n) / (float)m,
                     ((float)(s / m) + ((float)sx + jy) / (float)m) / (float)n);
+}
+
+inline float2 cmj_sample(uint s, uint N, uint p)
+{
+    return cmj_sample_m(s, N, cmj_grid_m(N), p);
 }
 
 inline uint hash_u32(uint x)
