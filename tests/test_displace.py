@@ -316,3 +316,74 @@ def test_bad_input_names_the_field():
         compile_scene(s)
     with pytest.raises(tx.SceneError, match="displacement"):
         tx.Material(displacement="height.png").validate()
+
+
+_SCENE_FILE = """
+[camera]
+eye = [0.0, 1.5, 2.5]
+look_at = [0.0, 0.0, 0.0]
+
+[[lights]]
+position = [0.0, 5.0, 1.0]
+intensity = [10.0, 10.0, 10.0]
+
+[textures.h]
+procedural = "bricks_height"
+params = {{ size = 32 }}
+
+[materials.m]
+diffuse = [0.6, 0.5, 0.4]
+displacement = {{ texture = "h", {disp} }}
+
+[[objects]]
+type = "quad"
+p0 = [-1, 0, 1]
+p1 = [1, 0, 1]
+p2 = [1, 0, -1]
+p3 = [-1, 0, -1]
+material = "m"
+"""
+
+
+@pytest.mark.parametrize("disp, kw", [
+    ('scale = 0.1, offset = -0.02, method = "search", steps = 16, refine = 4, adaptive = true',
+     {"scale": 0.1, "offset": -0.02, "method": "search", "steps": 16, "refine": 4, "adaptive": True}),
+    ('scale = 0.1, method = "maxmip"', {"scale": 0.1, "method": "maxmip"}),
+    ('scale = 0.1, method = "tessellate", resolution = 2', {"scale": 0.1, "method": "tessellate", "resolution": 2}),
+])
+def test_scene_file_displacement_renders_as_the_api_scene(device, tmp_path, disp, kw):
+    """materials.NAME.displacement in a scene file builds the same Displacement as the API:
+    the two scenes render identical images (same program, same buffers)."""
+    path = tmp_path / "d.toml"
+    path.write_text(_SCENE_FILE.format(disp=disp))
+    from_file = tx.Scene.load(path)
+    d = tx.Displacement(tx.Texture.procedural("bricks_height", size=32), **kw)
+    api = tx.Scene(camera=tx.Camera(eye=(0, 1.5, 2.5), look_at=(0, 0, 0)),
+                   lights=[tx.PointLight(position=(0, 5, 1), intensity=(10, 10, 10))])
+    api.add(tx.Quad(*CORNERS, material=tx.Material(diffuse=(0.6, 0.5, 0.4), displacement=d)))
+    a = tx.render(from_file, 48, 32, 1, device=device, jitter=False).rgb
+    b = tx.render(api, 48, 32, 1, device=device, jitter=False).rgb
+    assert np.isfinite(a).all() and a.max() > 0
+    np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("disp, message", [
+    ('scale = 0.1, method = "parallax"',
+     "materials.m.displacement.method: expected one of search, maxmip, tessellate, got 'parallax'"),
+    ("steps = 0", r"materials.m.displacement.steps: expected an integer in \[1, 4096\], got 0"),
+    ("steps = 8.5", "materials.m.displacement.steps: expected int, got 8.5"),
+    ("refine = 33", r"materials.m.displacement.refine: expected an integer in \[0, 32\], got 33"),
+    ('scale = "big"', "materials.m.displacement.scale: expected int or float, got 'big'"),
+    ("scale = nan", "materials.m.displacement.scale"),
+    ("adaptive = 1", "materials.m.displacement.adaptive: expected true or false, got 1"),
+    ("resolution = 99", r"materials.m.displacement.resolution: expected an integer in \[1, 16\], got 99"),
+    ("height = 0.1", "materials.m.displacement.height: unknown key"),
+])
+def test_scene_file_displacement_errors_name_file_field_and_value(tmp_path, disp, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(_SCENE_FILE.format(disp=disp))
+    with pytest.raises(tx.SceneError, match="bad.toml: " + message):
+        tx.Scene.load(path)
+    path.write_text(_SCENE_FILE.format(disp="scale = 0.1").replace('texture = "h"', 'texture = "nope"'))
+    with pytest.raises(tx.SceneError, match="bad.toml: materials.m.displacement.texture: no texture named 'nope'"):
+        tx.Scene.load(path)

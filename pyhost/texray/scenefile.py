@@ -16,6 +16,7 @@ except ModuleNotFoundError:        # Python < 3.11
     import tomli as tomllib
 
 from .bump import Bump, NormalMap
+from .displace import Displacement
 from .errors import SceneError
 from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sphere, Texture
 from .texture import Label
@@ -36,10 +37,13 @@ _SCHEMA = {
     "label": {"texture": str, "uv_transform": dict},
     "bump": {"texture": str, "height": _NUM, "delta": (int, float, str)},
     "normal_map": {"texture": str, "convention": str, "space": str},
+    "displacement": {"texture": str, "scale": _NUM, "offset": _NUM, "method": str, "steps": int, "refine": int,
+                     "adaptive": bool, "resolution": int},
     "uv_transform": {"scale": _VEC, "offset": _VEC, "rotation": _NUM},
     "mapping": {"kind": str, "origin": _VEC, "x_axis": _VEC, "z_axis": _VEC, "scale": _NUM},
     "materials": {"diffuse": (str, list), "tint": _VEC, "specular": (int, float, list, str), "shininess": _NUM,
-                  "shininess_map": str, "label": (str, dict), "bump": dict, "normal_map": dict},
+                  "shininess_map": str, "label": (str, dict), "bump": dict, "normal_map": dict,
+                  "displacement": dict},
     "objects": {"type": str, "material": str, "translate": _VEC, "rotate": _VEC, "scale": (int, float, list),
                 "mapping": dict,
                 "mesh": str,                                                   # type = "mesh"
@@ -49,7 +53,7 @@ _SCHEMA = {
                 "p0": _VEC, "p1": _VEC, "p2": _VEC, "p3": _VEC, "uvs": _VEC},  # "quad"
 }
 _REQUIRED = {"lights": ("position",), "mapping": ("kind",), "label": ("texture",), "bump": ("texture",),
-             "normal_map": ("texture",)}
+             "normal_map": ("texture",), "displacement": ("texture",)}
 # Keys each object type takes besides type, material and the transform; the first ones are required.
 _OBJECT_KEYS = {
     "mesh": (("mesh",), ()),
@@ -69,8 +73,9 @@ def _check_table(table, kind, where):
             raise SceneError(f"{where}.{key}: unknown key (allowed: {', '.join(sorted(allowed))})" if where
                              else f"{key}: unknown top-level key (allowed: {', '.join(sorted(allowed))})")
         types = allowed[key] if isinstance(allowed[key], tuple) else (allowed[key],)
-        if isinstance(value, bool) or not isinstance(value, types):
-            names = " or ".join("array" if t is list else "table" if t is dict else t.__name__ for t in types)
+        if (isinstance(value, bool) and bool not in types) or not isinstance(value, types):
+            names = " or ".join("array" if t is list else "table" if t is dict else "true or false" if t is bool
+                                else t.__name__ for t in types)
             raise SceneError(f"{where + '.' if where else ''}{key}: expected {names}, got {value!r}")
     for key in _REQUIRED.get(kind, ()):
         if key not in table:
@@ -131,7 +136,7 @@ def _build(doc, base, path):
                 kw[role] = _named_texture(textures, kw[role], f"{where}.{role}")
         if "label" in kw:
             kw["label"] = _label(kw["label"], textures, f"{where}.label")
-        for role, make in (("bump", Bump), ("normal_map", NormalMap)):
+        for role, make in (("bump", Bump), ("normal_map", NormalMap), ("displacement", Displacement)):
             if role in kw:
                 kw[role] = _normal_role(make, kw[role], textures, f"{where}.{role}")
         m = Material(**kw)
@@ -168,9 +173,10 @@ def _texture(tt, name, base, uvt):
 
 
 def _normal_role(make, value, textures, where):
-    """A material's bump = { texture = NAME, height, delta } or normal_map = { texture = NAME,
-    convention, space }: texray.Bump / texray.NormalMap."""
-    role = "bump" if make is Bump else "normal_map"
+    """A material's bump = { texture = NAME, height, delta }, normal_map = { texture = NAME,
+    convention, space } or displacement = { texture = NAME, scale, offset, method, steps, refine,
+    adaptive, resolution }: texray.Bump / texray.NormalMap / texray.Displacement."""
+    role = {Bump: "bump", NormalMap: "normal_map", Displacement: "displacement"}[make]
     _check_table(value, role, where)
     args = dict(value, texture=_named_texture(textures, value["texture"], f"{where}.texture"))
     try:
