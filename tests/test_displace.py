@@ -387,3 +387,31 @@ def test_scene_file_displacement_errors_name_file_field_and_value(tmp_path, disp
     path.write_text(_SCENE_FILE.format(disp="scale = 0.1").replace('texture = "h"', 'texture = "nope"'))
     with pytest.raises(tx.SceneError, match="bad.toml: materials.m.displacement.texture: no texture named 'nope'"):
         tx.Scene.load(path)
+
+
+def test_bench_scene_files_and_their_height_maps():
+    """scenes/bench/{terrain,displaced_wall,planet}.toml load, their 16-bit height maps are
+    tools/make_assets.py's (to one 16-bit step), and the sweep's factory swaps the method
+    and knobs while keeping texture, scale and offset."""
+    import importlib.util
+    from pathlib import Path
+
+    from texray import bench_sweep as B
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("make_assets", root / "tools" / "make_assets.py")
+    assets = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(assets)
+    made = assets.displacement_heights()
+    scenes = B.displacement_scenes()
+    assert set(scenes) == set(B.DISP_SCENES)
+    files = {"terrain": "disp_terrain.png", "displaced_wall": "disp_wall.png", "planet": "disp_planet.png"}
+    for name, (scene, make) in scenes.items():
+        (d,) = [o.material.displacement for o in scene.objects if o.material.displacement is not None]
+        assert d.texture.shape == (256, 256)
+        np.testing.assert_allclose(d.texture.raw[:, :, 0], made[files[name]][:, :, 0], atol=0.5 / 65535 + 1e-7)
+        s = make("search", steps=4, refine=2, adaptive=True)
+        (d2,) = [o.material.displacement for o in s.objects if o.material.displacement is not None]
+        assert (d2.method, d2.steps, d2.refine, d2.adaptive) == ("search", 4, 2, True)
+        assert d2.texture is d.texture and (d2.scale, d2.offset) == (d.scale, d.offset)
+        assert scene.objects[0].material.displacement is d        # the loaded scene is unchanged
+    assert B._maxmip_applies(scenes["terrain"][0]) and not B._maxmip_applies(scenes["planet"][0])

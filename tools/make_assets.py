@@ -10,7 +10,13 @@ sRGB-encoded display values) and ``bricks_height.png`` (8-bit, 1 channel,
 linear height data (tagged linear) matching ``bricks.png``), all 512 x 512;
 ``globe_height.png`` (the continents' relief of ``globe.png``) and
 ``tiles_normal.png`` (a tangent-space normal map, OpenGL convention, made from a
-tile height field by ``normal_map_from_height``), linear data.
+tile height field by ``normal_map_from_height``), linear data. Height fields for
+displacement mapping are 16-bit, 1 channel, linear (an 8-bit map terraces slopes
+into visible steps): ``bricks_height16.png`` (``bricks_height.png`` at 16 bits, for
+the showcase ``scenes/displacement/``) and, 256 x 256, the displacement bench's
+``disp_wall.png`` (bricks 4 across, 8 up), ``disp_planet.png`` (1/f^2.2 fractal
+mountains, tileable) and ``disp_terrain.png`` (those mountains at 1/4 height with
+64 one-texel spikes of height 1).
 """
 from __future__ import annotations
 
@@ -61,12 +67,13 @@ def write_obj(path, mesh, comment=""):
         f.write(obj_text(mesh, comment))
 
 
-def write_png(path, image, colorspace="sRGB"):
-    """Write a float (H, W, C) image in [0, 1], row 0 = top, as 8-bit PNG."""
+def write_png(path, image, colorspace="sRGB", bits=8):
+    """Write a float (H, W, C) image in [0, 1], row 0 = top, as 8- or 16-bit PNG."""
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    pixels = np.round(np.clip(image, 0.0, 1.0) * 255.0).astype(np.uint8)
+    top, dtype, fmt = (255.0, np.uint8, oiio.UINT8) if bits == 8 else (65535.0, np.uint16, oiio.UINT16)
+    pixels = np.round(np.clip(image, 0.0, 1.0) * top).astype(dtype)
     h, w, c = pixels.shape
-    spec = oiio.ImageSpec(w, h, c, oiio.UINT8)
+    spec = oiio.ImageSpec(w, h, c, fmt)
     spec.attribute("oiio:ColorSpace", colorspace)
     buf = oiio.ImageBuf(spec)
     buf.set_pixels(oiio.ROI(), np.ascontiguousarray(pixels))
@@ -102,6 +109,31 @@ def textures():
         "tiles_normal.png": (normal_map_from_height(
             proc.bricks_height(s, n_rows=6, n_cols=6, mortar=0.08, bevel=0.06, seed=4, offset=0.0), 6.0), "linear"),
     }
+
+
+def heights16():
+    """file name -> (H, W, 1) heights in [0, 1], written as 16-bit linear PNG."""
+    return {"bricks_height16.png": proc.bricks_height(TEX_SIZE, seed=3), **displacement_heights()}
+
+
+def displacement_heights(size=256, seed=7):
+    """The displacement bench's height fields (scenes/bench/{displaced_wall,planet,terrain}.toml)."""
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[0:size, 0:size] / size
+    row = np.floor(y * 8)
+    bx = (x * 4 + 0.5 * (row % 2)) % 1
+    by = (y * 8) % 1
+    wall = np.minimum(np.minimum(bx, 1 - bx) * 4, np.minimum(by, 1 - by) * 2).clip(0, 0.1) * 10
+    freq = np.fft.fftfreq(size)
+    spec = rng.normal(size=(size, size)) + 1j * rng.normal(size=(size, size))
+    spec /= np.maximum(np.hypot(freq[None, :], freq[:, None]), 1.0 / size) ** 2.2
+    mountains = np.real(np.fft.ifft2(spec))
+    mountains = (mountains - mountains.min()) / np.ptp(mountains)
+    terrain = 0.25 * mountains
+    ij = rng.integers(0, size, (size // 4, 2))
+    terrain[ij[:, 0], ij[:, 1]] = 1.0                      # one-texel spikes
+    return {name: a[..., None].astype(np.float32) for name, a in
+            (("disp_wall.png", wall), ("disp_planet.png", mountains), ("disp_terrain.png", terrain))}
 
 
 def globe_height(size, seed=5, sea_level=0.52):
@@ -141,6 +173,10 @@ def main(argv=None):
         path = out / "textures" / name
         write_png(path, image, cs)
         print(f"{path}: {image.shape}, {path.stat().st_size / 1024:.0f} KiB")
+    for name, image in heights16().items():
+        path = out / "textures" / name
+        write_png(path, image, "linear", bits=16)
+        print(f"{path}: {image.shape} 16-bit, {path.stat().st_size / 1024:.0f} KiB")
 
 
 if __name__ == "__main__":

@@ -150,60 +150,63 @@ DISP_STEPS = (4, 8, 16, 32, 64, 128)
 DISP_REFINE = (0, 4, 8)
 
 
-def displacement_scenes(size=256):
-    """The sweep's scenes, built in code: a brick wall seen at grazing angles, a planet
-    with mountains, a terrain with one-texel spikes; each {name: (scene, Displacement
-    factory(method, **knobs))}."""
+# The displacement sweep's scenes: scenes/bench/<name>.toml (height maps from tools/make_assets.py).
+DISP_SCENES = ("terrain", "displaced_wall", "planet")
+
+
+def displaced(scene):
+    """True when some object of ``scene`` has a displacement map."""
+    return any(getattr(o.material, "displacement", None) is not None for o in scene.objects)
+
+
+def with_displacement(scene, method, **knobs):
+    """A copy of ``scene`` whose displacement maps all use ``method`` and ``knobs`` (steps,
+    refine, adaptive, resolution), keeping each map's texture, scale and offset; the
+    scene itself is not changed."""
+    import copy
+    import dataclasses
+
     from .displace import Displacement
-    from .scene import Camera, Material, PointLight, Quad, Scene, Sphere
-    from .texture import Texture
-    rng = np.random.default_rng(7)
-    y, x = np.mgrid[0:size, 0:size] / size
-    row = np.floor(y * 8)
-    bx = (x * 4 + 0.5 * (row % 2)) % 1
-    by = (y * 8) % 1
-    brick = np.minimum(np.minimum(bx, 1 - bx) * 4, np.minimum(by, 1 - by) * 2).clip(0, 0.1) * 10
-    freq = np.fft.fftfreq(size)
-    spec = rng.normal(size=(size, size)) + 1j * rng.normal(size=(size, size))
-    spec /= np.maximum(np.hypot(freq[None, :], freq[:, None]), 1.0 / size) ** 2.2
-    mountains = np.real(np.fft.ifft2(spec))
-    mountains = (mountains - mountains.min()) / np.ptp(mountains)
-    terrain = 0.25 * mountains
-    ij = rng.integers(0, size, (size // 4, 2))
-    terrain[ij[:, 0], ij[:, 1]] = 1.0                      # one-texel spikes
-    light = [PointLight(position=(3, 4, 3), intensity=(25, 25, 25))]
-
-    def tex(a):
-        return Texture.from_array(a.astype(np.float32)[:, :, None], wrap="clamp")
-
-    def factory(t, scale):
-        return lambda method, **kw: Displacement(t, scale=scale, method=method, **kw)
-
-    out = {}
-    wall = factory(tex(brick), 0.04)
-    out["brick wall (grazing)"] = (lambda d: _one(Scene(camera=Camera(eye=(-1.6, 0.25, 0.9), look_at=(0.4, 0.0, -0.6),
-                                                                      fov_y=40), lights=light),
-                                                  Quad((-1, -0.6, 0), (1, -0.6, 0), (1, 0.6, 0), (-1, 0.6, 0),
-                                                       material=Material(diffuse=(0.7, 0.35, 0.25),
-                                                                         displacement=d))), wall)
-    planet = factory(Texture.from_array(mountains.astype(np.float32)[:, :, None]), 0.08)
-    out["planet"] = (lambda d: _one(Scene(camera=Camera(eye=(0, 0.4, 3.2), look_at=(0, 0, 0), fov_y=35), lights=light),
-                                    Sphere(radius=0.8, axis_z=(0, 1, 0), material=Material(displacement=d))), planet)
-    spikes = factory(tex(terrain), 0.3)
-    out["terrain (spikes)"] = (lambda d: _one(Scene(camera=Camera(eye=(0, 0.9, 1.9), look_at=(0, 0, -0.2), fov_y=45),
-                                                    lights=light),
-                                              Quad((-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1),
-                                                   material=Material(diffuse=(0.5, 0.6, 0.4), displacement=d))),
-                               spikes)
+    out = copy.copy(scene)
+    out.objects = []
+    cache = {}
+    for o in scene.objects:
+        d = getattr(o.material, "displacement", None)
+        if d is not None:
+            if id(o.material) not in cache:
+                nd = Displacement(d.texture, scale=d.scale, offset=d.offset, method=method, **knobs)
+                cache[id(o.material)] = dataclasses.replace(o.material, displacement=nd)
+            o = copy.copy(o)
+            o.material = cache[id(o.material)]
+        out.objects.append(o)
     return out
 
 
-def _one(scene, obj):
-    scene.add(obj)
-    return scene
+def _maxmip_applies(scene):
+    """maxmip displaces planar parallelogram quads only: does every displaced object take it?"""
+    from .compile import compile_scene
+    from .errors import SceneError
+    try:
+        compile_scene(with_displacement(scene, "maxmip"))
+    except SceneError:
+        return False
+    return True
 
 
-def displacement_sweep(device=None, width=384, height=288, repeat=3, size=256, steps=DISP_STEPS,
+def displacement_scenes(names=DISP_SCENES):
+    """The displacement sweep's scenes, loaded from scenes/bench/: {name: (scene, factory)},
+    factory(method, **knobs) -> the scene with every displacement map set to that method
+    (:func:`with_displacement`)."""
+    from .bench_suite import suite_paths
+    from .scene import Scene
+    out = {}
+    for name, path in suite_paths(list(names)).items():
+        scene = Scene.load(path)
+        out[name] = (scene, lambda method, _s=scene, **kw: with_displacement(_s, method, **kw))
+    return out
+
+
+def displacement_sweep(device=None, width=384, height=288, repeat=3, steps=DISP_STEPS,
                        refine=DISP_REFINE):
     """{scene: [row]}: the tessellated reference (one vertex per texel) and every search
     (N, M), adaptive N and maxmip setting: frame time (median of ``repeat`` renders at 1
@@ -214,12 +217,12 @@ def displacement_sweep(device=None, width=384, height=288, repeat=3, size=256, s
 
     from .render import render
     result = {}
-    for name, (make, disp) in displacement_scenes(size).items():
+    for name, (scene, disp) in displacement_scenes().items():
         def run(d):
             times, img = [], None
             for _ in range(repeat):
                 t0 = time.perf_counter()
-                img = render(make(d), width, height, 1, device=device, jitter=False, aovs=("depth", "object_id"))
+                img = render(d, width, height, 1, device=device, jitter=False, aovs=("depth", "object_id"))
                 times.append(time.perf_counter() - t0)
             return img, float(np.median(times))
         ref, ref_s = run(disp("tessellate"))
@@ -231,7 +234,7 @@ def displacement_sweep(device=None, width=384, height=288, repeat=3, size=256, s
         for n in (8, 32):
             img, s = run(disp("search", steps=n, refine=8, adaptive=True))
             rows.append(_disp_row(f"search adaptive N={n} M=8", img, s, ref))
-        if "planet" not in name:
+        if _maxmip_applies(scene):
             img, s = run(disp("maxmip"))
             rows.append(_disp_row("maxmip", img, s, ref))
         result[name] = rows
