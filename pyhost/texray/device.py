@@ -181,15 +181,18 @@ class Runtime:
     def fp64(self):
         return "cl_khr_fp64" in self.device.extensions
 
-    def program(self, defines: dict[str, int]) -> cl.Program:
+    def program(self, defines: dict[str, int], extra_options=()) -> cl.Program:
         """The texray program compiled with ``-D name=value`` for each of ``defines``.
 
-        Built once per (device, source, options) in this process; pyopencl's
-        binary cache on disk makes the next process's build cheap as well.
-        Raises BuildError with the compiler log on failure.
+        Always as OpenCL C 1.2 (``-cl-std=CL1.2``): a driver that knows 2.0/3.0
+        (PoCL does) would otherwise accept what a 1.2-only GPU rejects, such as the
+        generic address space. Built once per (device, source, options) in this
+        process; the driver's or pyopencl's cache on disk makes the next process's
+        build cheap as well. Raises BuildError with the compiler log on failure.
         """
         source = layout.opencl_declarations() + '#include "texray.cl"\n'
-        options = [f"-D{k}={int(v)}" for k, v in sorted(defines.items())] + ["-I", str(KERNEL_DIR)]
+        options = ([f"-D{k}={int(v)}" for k, v in sorted(defines.items())] + ["-I", str(KERNEL_DIR)]
+                   + ["-cl-std=CL1.2"] + list(extra_options))
         key = (hashlib.sha256((source + _kernel_sources_digest()).encode()).hexdigest(), tuple(options))
         with self._lock:
             prg = self._programs.get(key)
