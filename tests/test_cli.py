@@ -43,12 +43,13 @@ def test_devices_command_lists_the_cpu():
 
 def test_bench_command_writes_json_report_and_compare(tmp_path, capsys):
     """A tiny full run: ray throughput, one suite scene (specialized and generic, no build
-    timing), a sweep, the markdown report, and --compare of the run with itself."""
+    timing), a sweep, the displacement sweep (terrain: every method against its tessellation),
+    the markdown report, and --compare of the run with itself."""
     import json
     out, md = tmp_path / "bench.json", tmp_path / "bench.md"
     assert main(["bench", "--device", "cpu", "--triangles", "5000", "--rays", "32", "--repeat", "1",
                  "--scenes", "globe", "--size", "32x24", "--spp", "1", "--no-build",
-                 "--sweep", "globe", "--sweep-size", "24x16", "--ref-spp", "8", "--sweep-spp", "1,2",
+                 "--sweep", "globe,terrain", "--sweep-size", "24x16", "--ref-spp", "8", "--sweep-spp", "1,2",
                  "--json", str(out), "--report", str(md)]) == 0
     r = json.loads(out.read_text())
     assert abs(r["bvh"]["triangles"] - 5000) <= 50 and r["bvh"]["sah_cost"] > 1
@@ -65,9 +66,23 @@ def test_bench_command_writes_json_report_and_compare(tmp_path, capsys):
     # More samples, less error against the reference (8 spp): the 2-spp error is the
     # smaller one unless the sweep is broken (noise falls by sqrt(2) in expectation).
     assert sweep[1]["rmse"] < sweep[0]["rmse"]
+    disp = dev["sweeps"]["terrain"]
+    from texray.bench_sweep import DISP_STEPS
+    assert disp["kind"] == "displacement" and disp["reference"].startswith("tessellate")
+    assert set(disp["series"]) == {"search M=0", "search M=4", "search M=8", "search adaptive M=8", "maxmip",
+                                   "tessellate"}
+    assert [p["steps"] for p in disp["series"]["search M=8"]] == list(DISP_STEPS)
+    (ref,) = disp["series"]["tessellate"]
+    (mm,) = disp["series"]["maxmip"]
+    coarse = disp["series"]["search M=0"][0]
+    assert ref["rmse"] == 0 and ref["wrong_hit"] == 0 and ref["frame_s"]["median"] == disp["reference_s"]
+    # The exact traversal misses no spike that the 4-step search finds; the search and maxmip hold
+    # one height map and its pyramid, the tessellation a 131k-triangle mesh and its BVH.
+    assert mm["wrong_hit"] <= coarse["wrong_hit"] and 0 < mm["rmse"] < 0.2
+    assert mm["device_mib"] < ref["device_mib"] / 10 and coarse["device_mib"] == mm["device_mib"]
     text = capsys.readouterr().out
-    assert "Mrays/s" in text and "generic/spec." in text
-    assert "| globe |" in md.read_text()
+    assert "Mrays/s" in text and "generic/spec." in text and "% wrong first hit" in text
+    assert "| globe |" in md.read_text() and "against tessellate (1 vertex/texel)" in md.read_text()
     assert main(["bench", "--compare", str(out), str(out)]) == 0
     cmp = capsys.readouterr().out
-    assert "globe frame ms" in cmp and "1.000" in cmp
+    assert "globe frame ms" in cmp and "1.000" in cmp and "terrain maxmip ms" in cmp

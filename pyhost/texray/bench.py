@@ -37,7 +37,7 @@ from . import __version__
 from .bench_report import compare, markdown, print_device
 from .bench_suite import (SUITE, bench_scene, build_times, local_size_sweep, median_spread, program_variants,
                           scenes_dir, suite_paths)
-from .bench_sweep import SPP_VALUES, plot, sweep_scene
+from .bench_sweep import SPP_VALUES, displaced, plot, sweep_scene
 
 
 def _git_commit():
@@ -141,7 +141,9 @@ def main(argv=None):
     ap.add_argument("--triangles", type=int, default=1_000_000, help="ray-throughput mesh size (default 1M)")
     ap.add_argument("--rays", type=int, default=1024, help="primary rays per side (default 1024; 0: skip)")
     ap.add_argument("--sweep", default="", help="scenes to sweep speed/accuracy knobs on, comma-separated "
-                                                "(e.g. globe,grazing_quad)")
+                                                "(e.g. globe,grazing_quad; displaced scenes such as "
+                                                "terrain,displaced_wall,planet sweep the displacement "
+                                                "methods against their tessellation)")
     ap.add_argument("--sweep-size", default="320x240", help="frame size of the sweeps (default 320x240)")
     ap.add_argument("--ref-spp", type=int, default=256, help="spp of the sweeps' reference images (default 256)")
     ap.add_argument("--sweep-spp", default=",".join(map(str, SPP_VALUES)), help="spp values swept")
@@ -210,7 +212,8 @@ def main(argv=None):
                 r["builds"][name] = build_times(path, dev, generic=not args.no_generic)
         for name, path in sweep_paths.items():
             sc, cs = scene_of(name, path)
-            out.write(f"  sweep {name}: {sweep_w}x{sweep_h}, reference {args.ref_spp} spp...\n")
+            ref = "the tessellated reference" if displaced(sc) else f"reference {args.ref_spp} spp"
+            out.write(f"  sweep {name}: {sweep_w}x{sweep_h}, {ref}...\n")
             out.flush()
             r["sweeps"][name] = sweep_scene(sc, cs, dev, sweep_w, sweep_h, args.repeat, args.ref_spp,
                                             _csv_ints(args.sweep_spp, "--sweep-spp"))
@@ -222,8 +225,7 @@ def main(argv=None):
                                 "frame_s": local_size_sweep(sc, cs, dev, w, h, 4, args.repeat, sizes)}
         if args.peers:
             from .bench_peers import bench_peers
-            peer_scenes = list(suite_paths(["globe", "grazing_quad", "brick_wall"]).values())
-            peer_scenes.append(scenes_dir() / "showcase.toml")
+            peer_scenes = list(suite_paths(["globe", "grazing_quad", "brick_wall", "textured_meshes"]).values())
             r["peers"] = bench_peers(dev, args.repeat, args.triangles, args.rays or 1024, peer_scenes)
         print_device(dname, r, out)
     Path(args.json).write_text(json.dumps(results, indent=1, default=str))

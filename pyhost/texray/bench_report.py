@@ -61,7 +61,14 @@ def _md_table(header, rows):
 
 
 def sweep_rows(sw):
+    """Rows of a sweep's table (:func:`sweep_header` names the columns)."""
     rows = []
+    if sw.get("kind") == "displacement":
+        for series, pts in sw["series"].items():
+            for p in pts:
+                rows.append([series, p["label"], _spread_ms(p["frame_s"]), _spread_ms(p["render_s"]),
+                             f"{p['device_mib']:.2f}", f"{p['rmse']:.4f}", f"{100 * p['wrong_hit']:.2f}"])
+        return rows
     for series, pts in sw["series"].items():
         for p in pts:
             rows.append([series, p["label"], _spread_ms(p["frame_s"]), f"{p['rmse']:.5f}",
@@ -71,6 +78,20 @@ def sweep_rows(sw):
 
 
 SWEEP_HEADER = ["series", "setting", "frame ms (min-max)", "RMSE", "RMSE / mean", "% pixels off > 0.02"]
+DISP_SWEEP_HEADER = ["series", "setting", "frame ms, setup included (min-max)", "render ms (min-max)",
+                     "device MiB", "RMSE", "% wrong first hit"]
+
+
+def sweep_header(sw):
+    return DISP_SWEEP_HEADER if sw.get("kind") == "displacement" else SWEEP_HEADER
+
+
+def sweep_title(scene, sw):
+    """One line saying what a sweep compares against."""
+    if sw.get("kind") == "displacement":
+        return (f"{scene} {sw['width']}x{sw['height']}, 1 spp at pixel centres, against {sw['reference']} "
+                f"({1e3 * sw['reference_s']:.0f} ms, {sw['reference_device_mib']:.2f} MiB)")
+    return f"{scene} {sw['width']}x{sw['height']} against a {sw['ref_spp']}-spp reference"
 
 
 def rays_line(rays):
@@ -88,9 +109,12 @@ def print_device(name, dev, out):
     if dev.get("scenes"):
         out.write("\n" + _text_table(SCENE_HEADER, scene_rows(dev)) + "\n")
     for scene, sw in dev.get("sweeps", {}).items():
-        out.write(f"\n  sweep {scene} {sw['width']}x{sw['height']}, reference {sw['ref_spp']} spp "
-                  f"({sw['reference_s']:.1f} s)\n")
-        out.write(_text_table(SWEEP_HEADER, sweep_rows(sw)) + "\n")
+        if sw.get("kind") == "displacement":
+            out.write(f"\n  sweep {sweep_title(scene, sw)}\n")
+        else:
+            out.write(f"\n  sweep {scene} {sw['width']}x{sw['height']}, reference {sw['ref_spp']} spp "
+                      f"({sw['reference_s']:.1f} s)\n")
+        out.write(_text_table(sweep_header(sw), sweep_rows(sw)) + "\n")
     if dev.get("local_sizes"):
         ls = dev["local_sizes"]
         out.write("\n  local size (0 = driver's choice): "
@@ -123,8 +147,7 @@ def markdown(results, plot_path=None) -> str:
                    "stage kernels, each timed alone. Stage M/s: camera samples per second through each stage "
                    "(shadow: shadow rays).", ""]
         for scene, sw in dev.get("sweeps", {}).items():
-            md += [f"### Sweep: {scene} {sw['width']}x{sw['height']} against a {sw['ref_spp']}-spp reference", "",
-                   _md_table(SWEEP_HEADER, sweep_rows(sw)), ""]
+            md += [f"### Sweep: {sweep_title(scene, sw)}", "", _md_table(sweep_header(sw), sweep_rows(sw)), ""]
         if dev.get("local_sizes"):
             ls = dev["local_sizes"]
             md += [f"Work-group size ({ls['scene']} {ls['size']}, {ls['spp']} spp; 0 = driver's choice): "
@@ -161,6 +184,8 @@ def _metrics(dev):
             for p in pts:
                 m[f"{scene} {p['label']} ms"] = (1e3 * p["frame_s"]["median"], False)
                 m[f"{scene} {p['label']} RMSE"] = (p["rmse"], False)
+                if "wrong_hit" in p:
+                    m[f"{scene} {p['label']} wrong first hit"] = (p["wrong_hit"], False)
     return m
 
 

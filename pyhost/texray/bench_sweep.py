@@ -73,7 +73,10 @@ def with_bump_delta(scene, texels):
 
 def series_for(scene, compiled, spp_values=SPP_VALUES, filter_spp=FILTER_SPP):
     """The sweep's series for a scene: [(series name, [(label, render kwargs)])]; the kwarg
-    ``bump_texels`` is applied to the scene (with_bump_delta), the others go to render()."""
+    ``bump_texels`` is applied to the scene (with_bump_delta), the others go to render().
+    A displaced scene gets the displacement series instead (:func:`displacement_series`)."""
+    if displaced(scene):
+        return displacement_series(scene)
     out = [("spp", [(f"{s} spp", {"spp": s}) for s in spp_values])]
     if compiled.textures is not None and _supports("texture_filter"):
         for f in FILTERS:
@@ -87,8 +90,12 @@ def series_for(scene, compiled, spp_values=SPP_VALUES, filter_spp=FILTER_SPP):
 
 def sweep_scene(scene, compiled, device, width, height, repeat, ref_spp=256, spp_values=SPP_VALUES,
                 filter_spp=FILTER_SPP):
-    """{"reference": ..., "series": {name: [point]}}, point = label, settings, time, errors."""
+    """{"reference": ..., "series": {name: [point]}}, point = label, settings, time, errors.
+    A displaced scene is swept by :func:`sweep_displacement` (``ref_spp``, ``spp_values`` and
+    ``filter_spp`` do not apply)."""
     from .render import render
+    if displaced(scene):
+        return sweep_displacement(scene, device, width, height, repeat)
     ref_kw = {"texture_filter": "bilinear"} if compiled.textures is not None and _supports("texture_filter") else {}
     ref_scene = with_bump_delta(scene, "analytic") if _bumps(scene) else scene
     ref = render(ref_scene, width, height, ref_spp, device=device, seed=12345, **ref_kw)
@@ -126,17 +133,23 @@ def plot(sweeps, path):
     n = len(sweeps)
     fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.2), squeeze=False)
     for ax, (scene, sw) in zip(axes[0], sweeps.items()):
+        disp = sw.get("kind") == "displacement"
         for name, rows in sw["series"].items():
+            if disp and name == "tessellate":        # the reference: error 0, a line at its time
+                ax.axvline(1e3 * rows[0]["frame_s"]["median"], ls="--", color="grey",
+                           label=f"tessellate (reference, {rows[0]['device_mib']:.1f} MiB)")
+                continue
             t = [1e3 * r["frame_s"]["median"] for r in rows]
             e = [r["rmse"] for r in rows]
             ax.plot(t, e, "o-", label=name)
             for r, x, y in zip(rows, t, e):
-                ax.annotate(str(r["spp"]), (x, y), textcoords="offset points", xytext=(3, 3), fontsize=7)
+                tag = r.get("spp", r.get("steps", ""))
+                ax.annotate(str(tag), (x, y), textcoords="offset points", xytext=(3, 3), fontsize=7)
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlabel("frame time (ms)")
-        ax.set_ylabel(f"RMSE vs {sw['ref_spp']}-spp reference")
-        ax.set_title(f"{scene} {sw['width']}x{sw['height']} (labels: spp)")
+        ax.set_xlabel("frame time, setup included (ms)" if disp else "frame time (ms)")
+        ax.set_ylabel(f"RMSE vs {sw['reference']}" if disp else f"RMSE vs {sw['ref_spp']}-spp reference")
+        ax.set_title(f"{scene} {sw['width']}x{sw['height']} (labels: {'N' if disp else 'spp'})")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
     fig.tight_layout()
@@ -206,65 +219,73 @@ def displacement_scenes(names=DISP_SCENES):
     return out
 
 
-def displacement_sweep(device=None, width=384, height=288, repeat=3, steps=DISP_STEPS,
-                       refine=DISP_REFINE):
-    """{scene: [row]}: the tessellated reference (one vertex per texel) and every search
-    (N, M), adaptive N and maxmip setting: frame time (median of ``repeat`` renders at 1
-    spp, pixel centres; end to end: scene compile, BVH, upload, render), its render part,
-    device memory, RMSE against the reference and the fraction of pixels whose first hit
-    differs (a different object, a hit against a miss, or depth off by more than 1%)."""
+def displacement_series(scene):
+    """The displacement sweep's series, one curve per method: the linear + binary search with N
+    varying at each M, the adaptive search, maxmip (where every displaced object is a
+    planar parallelogram quad) and the tessellation (one vertex per texel: the reference).
+    [(series name, [(label, {"method": ..., knobs})])]."""
+    out = [(f"search M={m}", [(f"search N={n} M={m}", {"method": "search", "steps": n, "refine": m})
+                              for n in DISP_STEPS]) for m in DISP_REFINE]
+    out.append(("search adaptive M=8", [(f"search adaptive N={n} M=8",
+                                         {"method": "search", "steps": n, "refine": 8, "adaptive": True})
+                                        for n in DISP_ADAPTIVE_STEPS]))
+    if _maxmip_applies(scene):
+        out.append(("maxmip", [("maxmip", {"method": "maxmip"})]))
+    out.append(("tessellate", [(DISP_REFERENCE, {"method": "tessellate", "resolution": 1})]))
+    return out
+
+
+DISP_ADAPTIVE_STEPS = (8, 32)
+DISP_REFERENCE = "tessellate (1 vertex/texel)"
+
+
+def sweep_displacement(scene, device, width, height, repeat):
+    """Every setting of :func:`displacement_series` against the tessellated reference, at 1
+    spp through pixel centres. Per point: ``frame_s``, end to end (scene compile with the
+    host tessellation, BVH build, upload, render: what a user waits for) over ``repeat``
+    renders after an untimed one that also gives the AOVs; ``render_s``, the device part;
+    ``device_mib``; RMSE (linear RGB) against the reference, and ``wrong_hit``, the
+    fraction of pixels whose first hit differs from the reference's (another object, a
+    hit against a miss, or depth off by more than 1%)."""
     import time
 
     from .render import render
-    result = {}
-    for name, (scene, disp) in displacement_scenes().items():
-        def run(d):
-            times, img = [], None
+    series = displacement_series(scene)
+    points = {}
+    for name, pts in series:
+        for label, kw in pts:
+            kw = dict(kw)
+            sc = with_displacement(scene, kw.pop("method"), **kw)
+            first = render(sc, width, height, 1, device=device, jitter=False, aovs=("depth", "object_id"))
+            render(sc, width, height, 1, device=device, jitter=False)     # warm-up: the program without AOVs
+            wall, dev = [], []
             for _ in range(repeat):
                 t0 = time.perf_counter()
-                img = render(d, width, height, 1, device=device, jitter=False, aovs=("depth", "object_id"))
-                times.append(time.perf_counter() - t0)
-            return img, float(np.median(times))
-        ref, ref_s = run(disp("tessellate"))
-        rows = [_disp_row("tessellate (1 vertex/texel)", ref, ref_s, ref)]
-        for n in steps:
-            for m in refine:
-                img, s = run(disp("search", steps=n, refine=m))
-                rows.append(_disp_row(f"search N={n} M={m}", img, s, ref))
-        for n in (8, 32):
-            img, s = run(disp("search", steps=n, refine=8, adaptive=True))
-            rows.append(_disp_row(f"search adaptive N={n} M=8", img, s, ref))
-        if _maxmip_applies(scene):
-            img, s = run(disp("maxmip"))
-            rows.append(_disp_row("maxmip", img, s, ref))
-        result[name] = rows
+                r = render(sc, width, height, 1, device=device, jitter=False)     # compiles the scene anew
+                wall.append(time.perf_counter() - t0)
+                dev.append(r.stats["render_s"])
+            points[label] = (first, median_spread(wall), median_spread(dev))
+    ref = points[DISP_REFERENCE][0]
+    result = {"kind": "displacement", "width": width, "height": height, "ref_spp": 1, "reference": DISP_REFERENCE,
+              "reference_s": points[DISP_REFERENCE][1]["median"],
+              "reference_device_mib": _mib(ref), "series": {}}
+    for name, pts in series:
+        rows = []
+        for label, kw in pts:
+            img, wall, dev = points[label]
+            rows.append({"label": label, **kw, "frame_s": wall, "render_s": dev, "device_mib": _mib(img),
+                         **error_metrics(img.rgb, ref.rgb), "wrong_hit": _wrong_hits(img, ref)})
+        result["series"][name] = rows
     return result
 
 
-def _disp_row(label, img, seconds, ref):
+def _mib(img):
+    return sum(img.stats["device_bytes"].values()) / 2 ** 20
+
+
+def _wrong_hits(img, ref):
     da, db = img.aov["depth"][..., 0], ref.aov["depth"][..., 0]
     oa, ob = img.aov["object_id"][..., 0], ref.aov["object_id"][..., 0]
     with np.errstate(invalid="ignore"):
         wrong = (oa != ob) | (np.isnan(da) != np.isnan(db)) | (np.abs(da - db) > 0.01 * db)
-    return {"setting": label, "time_s": seconds, "render_s": img.stats["render_s"],
-            "device_mib": sum(img.stats["device_bytes"].values()) / 2 ** 20,
-            "rmse": error_metrics(img.rgb, ref.rgb)["rmse"], "wrong_hit": float(np.mean(wrong))}
-
-
-def displacement_table(result):
-    """Markdown table of :func:`displacement_sweep`."""
-    lines = []
-    for name, rows in result.items():
-        lines += [f"**{name}**", "", "| setting | frame s | render s | device MiB | RMSE | wrong first hit |",
-                  "|---|---|---|---|---|---|"]
-        for r in rows:
-            lines.append(f"| {r['setting']} | {r['time_s']:.3f} | {r['render_s']:.3f} | {r['device_mib']:.2f} | "
-                         f"{r['rmse']:.4f} | {100 * r['wrong_hit']:.2f}% |")
-        lines.append("")
-    return "\n".join(lines)
-
-
-if __name__ == "__main__":                      # python -m texray.bench_sweep [WIDTH HEIGHT]
-    import sys
-    w, h = (int(sys.argv[1]), int(sys.argv[2])) if len(sys.argv) > 2 else (384, 288)
-    print(displacement_table(displacement_sweep(width=w, height=h)))
+    return float(np.mean(wrong))
