@@ -22,7 +22,7 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--triangles", type=int, default=1_000_000)
     ap.add_argument("--rays", type=int, default=1024, help="primary rays per side")
-    ap.add_argument("scenes", nargs="*", default=[str(ROOT / "scenes/showcase.toml"),
+    ap.add_argument("scenes", nargs="*", default=[str(ROOT / "scenes/bench/textured_meshes.toml"),
                                                   str(ROOT / "scenes/bench/globe.toml")])
     a = ap.parse_args(argv)
     r = bench_peers(a.device, a.repeat, a.triangles, a.rays, a.scenes)

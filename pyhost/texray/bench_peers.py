@@ -110,7 +110,13 @@ def bench_peers(device, repeat=5, triangles=1_000_000, size=1024, scenes=(), thr
                   f"shadow {100 * a['shadow_agree']:.3f}%\n")
         out.write("(texray 'BVH build' = compile_scene incl. its BVH; Embree's = scene creation + commit)\n")
     if av["mitsuba"]["ok"]:
-        result["frames"] = [frames(p, device, repeat) for p in scenes]
+        result["frames"], skipped = [], []
+        for p in scenes:
+            try:
+                result["frames"].append(frames(p, device, repeat))
+            except peers.Unsupported as e:       # a feature Mitsuba has no equivalent for
+                skipped.append(f"{Path(p).stem}: {e}")
+        result["skipped"] = skipped
         out.write(f"\nFrames: ambient 0, specular 0 in both; Mitsuba {av['mitsuba']['variant']} direct, "
                   "lights x pi; median render s (min-max)\n")
         out.write(f"| {'scene':<24} | {'texray s':>19} | {'Mitsuba s':>19} | {'ratio':>5} | {'Mi load s':>9} |"
@@ -125,6 +131,8 @@ def bench_peers(device, repeat=5, triangles=1_000_000, size=1024, scenes=(), thr
                       f" {100 * d['rel_mean_diff']:7.2f}% | {100 * d['rel_mean_abs']:6.2f}% |"
                       f" {100 * d['frac_pixels_over']:6.2f}% |\n")
         out.write("ratio = Mitsuba / texray render time (> 1: texray faster)\n")
+        for line in skipped:
+            out.write(f"  not compared: {line}\n")
         for note in dict.fromkeys(n for f in result["frames"] for n in f["notes"]):
             out.write(f"  note: {note}\n")
     result["lines"] = out.getvalue().rstrip("\n").splitlines()
