@@ -45,16 +45,9 @@ inline float bump_value(__global const half* texels, __global const TextureInfo*
  * the interpolant does. */
 inline float2 bump_gradient_bilinear(__global const half* texels, TexLevel lv, int mode, float2 st)
 {
-    float x = wrap_reduce(st.x, mode) * (float)lv.w - 0.5f;
-    float y = (1.0f - wrap_reduce(st.y, mode)) * (float)lv.h - 0.5f;
-    float fx = floor(x), fy = floor(y);
-    float ax = x - fx, ay = y - fy;
-    int x0 = wrap_index((int)fx, lv.w, mode), x1 = wrap_index((int)fx + 1, lv.w, mode);
-    int y0 = wrap_index((int)fy, lv.h, mode), y1 = wrap_index((int)fy + 1, lv.h, mode);
-    float t00 = texel_at(texels, lv, x0, y0).x, t10 = texel_at(texels, lv, x1, y0).x;
-    float t01 = texel_at(texels, lv, x0, y1).x, t11 = texel_at(texels, lv, x1, y1).x;
-    float dx = (t10 - t00) * (1.0f - ay) + (t11 - t01) * ay;
-    float dy = (t01 - t00) * (1.0f - ax) + (t11 - t10) * ax;
+    BilinearTaps k = bilinear_taps(texels, lv, mode, st);
+    float dx = (k.t10.x - k.t00.x) * (1.0f - k.ay) + (k.t11.x - k.t01.x) * k.ay;
+    float dy = (k.t01.x - k.t00.x) * (1.0f - k.ax) + (k.t11.x - k.t10.x) * k.ax;
     return (float2)(dx * (float)lv.w, -dy * (float)lv.h);
 }
 

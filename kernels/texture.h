@@ -58,21 +58,31 @@ inline float2 texture_coords(__global const TextureInfo* ti, float2 uv)
     return uv_transform(uv, vload4(0, ti->m0), vload2(0, ti->m1));
 }
 
-/* Bilinear filtering of one level in wrap mode `mode`. Coordinates are reduced
- * to a small range before scaling (wrap_reduce), so huge (u, v) never overflow
- * an int, and NaN maps to a defined texel rather than out of bounds. Rows are
- * wrapped from the top (1 - v), which every wrap mode allows (wrap.h). */
-inline float4 texture_bilinear_level(__global const half* texels, TexLevel lv, int mode, float2 uv)
+/* The four texels around uv in one level, wrap mode `mode`, and the weights ax, ay
+ * of the second column and row (x = u w - 1/2 grows with u, y = (1 - v) h - 1/2
+ * falls with v). Coordinates are reduced to a small range before scaling
+ * (wrap_reduce), so huge (u, v) never overflow an int, and NaN maps to a defined
+ * texel rather than out of bounds. Rows are wrapped from the top (1 - v), which
+ * every wrap mode allows (wrap.h). */
+typedef struct { float4 t00, t10, t01, t11; float ax, ay; } BilinearTaps;
+
+inline BilinearTaps bilinear_taps(__global const half* texels, TexLevel lv, int mode, float2 uv)
 {
     float x = wrap_reduce(uv.x, mode) * (float)lv.w - 0.5f;
     float y = (1.0f - wrap_reduce(uv.y, mode)) * (float)lv.h - 0.5f;
     float fx = floor(x), fy = floor(y);
-    float ax = x - fx, ay = y - fy;
     int x0 = wrap_index((int)fx, lv.w, mode), x1 = wrap_index((int)fx + 1, lv.w, mode);
     int y0 = wrap_index((int)fy, lv.h, mode), y1 = wrap_index((int)fy + 1, lv.h, mode);
-    float4 t00 = texel_at(texels, lv, x0, y0), t10 = texel_at(texels, lv, x1, y0);
-    float4 t01 = texel_at(texels, lv, x0, y1), t11 = texel_at(texels, lv, x1, y1);
-    return (t00 * (1.0f - ax) + t10 * ax) * (1.0f - ay) + (t01 * (1.0f - ax) + t11 * ax) * ay;
+    BilinearTaps k = { texel_at(texels, lv, x0, y0), texel_at(texels, lv, x1, y0),
+                       texel_at(texels, lv, x0, y1), texel_at(texels, lv, x1, y1), x - fx, y - fy };
+    return k;
+}
+
+/* Bilinear filtering of one level in wrap mode `mode` (bilinear_taps). */
+inline float4 texture_bilinear_level(__global const half* texels, TexLevel lv, int mode, float2 uv)
+{
+    BilinearTaps k = bilinear_taps(texels, lv, mode, uv);
+    return (k.t00 * (1.0f - k.ax) + k.t10 * k.ax) * (1.0f - k.ay) + (k.t01 * (1.0f - k.ax) + k.t11 * k.ax) * k.ay;
 }
 
 /* Bilinear filtering of level 0 (uv already transformed). */
