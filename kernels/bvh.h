@@ -16,7 +16,7 @@
  * the scene does not use are NULL and their code is not compiled. */
 #define TX_GEOM_PARAMS __global const float4* nodes, uint nnodes, __global const TriVerts* tris, \
     __global const Sphere* spheres, __global const Cylinder* cylinders, __global const QuadVerts* quads, \
-    __global const Displaced* displaced, __global const float* heights
+    __global const Displaced* displaced, __global const ushort* heights
 #define TX_GEOM_ARGS nodes, nnodes, tris, spheres, cylinders, quads, displaced, heights
 
 /* Slab test for a ray with a zero direction component: such an axis bounds

@@ -1,7 +1,7 @@
 #line 2 "displace.h"
 /* Displacement mapping (the lecture's "Displacement Mapping" slides): the surface
  * S(u, v) = P(u, v) + H(u, v) n(u, v) of a quad, sphere or cylinder (Displaced,
- * texray.layout.DISPLACED), H the bilinear interpolant of a float32 height texture
+ * texray.layout.DISPLACED), H the bilinear interpolant of a unorm16 height texture (texray.displace.quantize)
  * in world units (texray.displace: conventions of texture.h, v = 0 the bottom row,
  * texel centres at (i + 0.5) / W; the texture's wrap mode).
  *
@@ -46,6 +46,7 @@ typedef struct {
     uint shape, hoff;
     int w, h, mode;
     float radius, z0, z1, th0, span, hmin, hmax;
+    float hstep;            /* world units per unorm16 step of the stored heights: (hmax - hmin) / 65535 */
     float delta;            /* rounding bound of h along the ray (header comment) */
 } DispFrame;
 
@@ -60,6 +61,7 @@ inline DispFrame disp_frame(__global const Displaced* d, float3 org, float3 dir)
     f.radius = d->radius; f.z0 = d->z_min; f.z1 = d->z_max;
     f.th0 = d->theta_min; f.span = d->theta_max - d->theta_min;
     f.hmin = d->hmin; f.hmax = d->hmax;
+    f.hstep = (f.hmax - f.hmin) * (1.0f / 65535.0f);
     float ext = TX_MAX(fabs(f.hmin), fabs(f.hmax));
     if (f.shape == DISP_QUAD) {
         float3 c1 = cross3(f.e1, f.n), c2 = cross3(f.n, f.e0);
@@ -97,16 +99,18 @@ inline float3 disp_local(const DispFrame* f, float3 q)
 
 /* The four texels around texel-cell corner index (cx, cy) (cell grid of
  * texray.displace.minmax_pyramid: texels cx - 1, cx and rows cy - 1, cy). */
-inline float4 disp_cell_corners(__global const float* hts, const DispFrame* f, int cx, int cy)
+inline float4 disp_cell_corners(__global const ushort* hts, const DispFrame* f, int cx, int cy)
 {
     int x0 = wrap_index(cx - 1, f->w, f->mode), x1 = wrap_index(cx, f->w, f->mode);
     int y0 = wrap_index(cy - 1, f->h, f->mode), y1 = wrap_index(cy, f->h, f->mode);
-    __global const float* t = hts + f->hoff;
-    return (float4)(t[y0 * f->w + x0], t[y0 * f->w + x1], t[y1 * f->w + x0], t[y1 * f->w + x1]);
+    __global const ushort* t = hts + f->hoff;
+    float4 q = (float4)((float)t[y0 * f->w + x0], (float)t[y0 * f->w + x1], (float)t[y1 * f->w + x0],
+                        (float)t[y1 * f->w + x1]);
+    return f->hmin + q * f->hstep;
 }
 
 /* H(u, v) for (u, v) in [0, 1]^2 and its gradient (dH/du, dH/dv) (texture.h's taps). */
-inline float disp_height(__global const float* hts, const DispFrame* f, float2 uv, float2* grad)
+inline float disp_height(__global const ushort* hts, const DispFrame* f, float2 uv, float2* grad)
 {
     float x = uv.x * (float)f->w + 0.5f, y = (1.0f - uv.y) * (float)f->h + 0.5f;
     float cx = floor(x), cy = floor(y);
@@ -121,7 +125,7 @@ inline float disp_height(__global const float* hts, const DispFrame* f, float2 u
 }
 
 /* f(t) = h - H at the ray's point t (+inf outside the domain); *uv its (u, v). */
-inline float disp_f(__global const float* hts, const DispFrame* f, float t, float2* uv)
+inline float disp_f(__global const ushort* hts, const DispFrame* f, float t, float2* uv)
 {
     float3 l = disp_local(f, f->q0 + t * f->dir);
     *uv = l.xy;
@@ -192,7 +196,7 @@ inline int disp_clip(const DispFrame* f, float tmin, float tmax, float* A, float
  * no surface (outside the (u, v) domain, e.g. [A, B]'s ends rounded just past the
  * quad's edge, or a partial cylinder's gap) are skipped: they neither start nor end
  * a bracket. */
-inline int disp_search(__global const float* hts, const DispFrame* f, float A, float B, uint steps, uint refine,
+inline int disp_search(__global const ushort* hts, const DispFrame* f, float A, float B, uint steps, uint refine,
                        int any, int from_outside, float* t_hit, float2* uv_hit)
 {
     float2 uv;
@@ -260,7 +264,7 @@ inline int disp_quadratic_root(float c0, float c1, float c2, float len, int any,
 /* Exact min-max pyramid traversal on [A, B] (quads; header comment). Cell
  * coordinates X = u W + 1/2, Y = (1 - v) H + 1/2 (level 0: (W + 1) x (H + 1) cells),
  * affine in t; cells are tracked as integers, so rounding never loops or skips. */
-inline int disp_maxmip(__global const float* hts, __global const Displaced* d, const DispFrame* f, float A, float B,
+inline int disp_maxmip(__global const ushort* hts, __global const Displaced* d, const DispFrame* f, float A, float B,
                        int any, int from_outside, float* t_hit, float2* uv_hit)
 {
     int levels = TX_MIN((int)d->levels, TX_DISP_MAX_LEVELS);
@@ -290,7 +294,9 @@ inline int disp_maxmip(__global const float* hts, __global const Displaced* d, c
         float tx = dX != 0.0f ? (bx - X0) / dX : INFINITY, ty = dY != 0.0f ? (by - Y0) / dY : INFINITY;
         float te = TX_MAX(TX_MIN(TX_MIN(tx, ty), B), t);
         float ha = h0 + t * dh, hb = h0 + te * dh;
-        float2 mm = vload2(0, hts + off[L] + 2u * (uint)(cy * cw[L] + cx));
+        /* Dequantized like the texels (monotone in q), so the pyramid of the stored q bounds
+         * the device's interpolant exactly. */
+        float2 mm = f->hmin + convert_float2(vload2(0, hts + off[L] + 2u * (uint)(cy * cw[L] + cx))) * f->hstep;
         int skip = TX_MIN(ha, hb) > mm.y + f->delta || TX_MAX(ha, hb) < mm.x - f->delta;
         if (!skip) {
             if (L > 0) {
@@ -335,7 +341,7 @@ inline int disp_maxmip(__global const float* hts, __global const Displaced* d, c
 /* Nearest (any = 0) or any (any = 1) hit of the displaced surface with t in (tmin,
  * tmax); *uv = the primitive's (u, v) at the hit. NaN input and degenerate frames
  * give a miss (every range test is false for NaN). */
-inline int displaced_intersect(__global const Displaced* d, __global const float* hts, float3 org, float3 dir,
+inline int displaced_intersect(__global const Displaced* d, __global const ushort* hts, float3 org, float3 dir,
                                float tmin, float tmax, int any, float* t, float2* uv)
 {
     DispFrame f = disp_frame(d, org, dir);
@@ -367,7 +373,7 @@ inline int displaced_intersect(__global const Displaced* d, __global const float
  * "B small" approximation); returns (dH/du, dH/dv) for bump.h bump_normal, which
  * turns n into the displaced surface's normal. uv: texture coordinates (quads: the
  * corners' uvs interpolated; spheres and cylinders: their uv = param). */
-inline float2 displaced_geom(__global const Displaced* d, __global const float* hts, float3 org, float3 dir,
+inline float2 displaced_geom(__global const Displaced* d, __global const ushort* hts, float3 org, float3 dir,
                              float t, float2 param, Geom* g)
 {
     DispFrame f = disp_frame(d, org, dir);

@@ -179,7 +179,9 @@ def test_edge_rays(device, method):
     orgs = np.array([[0.1, 0.199, 0.2],      # inside the slab, above the surface: look down
                      [0.1, 0.199, 0.2],      # inside, parallel to the quad
                      [-3.0, 0.25, 0.3],      # parallel, above the slab: misses
-                     [-3.0, 0.1, 0.3],       # parallel through the slab: meets a bump
+                     [-3.0, 0.12, 0.3],      # parallel through the slab: meets a bump (not at h = 0.1,
+                                             # the field's mean, where H - h has a zero set along the
+                                             # ray's whole entry: any rounding of H flips its sign)
                      [-3.0, 0.3, 0.0],       # through the volume's corner region, over every bump
                      [0.0, 3.0, 0.0]])
     dirs = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0],
@@ -415,3 +417,30 @@ def test_bench_scene_files_and_their_height_maps():
         assert d2.texture is d.texture and (d2.scale, d2.offset) == (d.scale, d.offset)
         assert scene.objects[0].material.displacement is d        # the loaded scene is unchanged
     assert B._maxmip_applies(scenes["terrain"][0]) and not B._maxmip_applies(scenes["planet"][0])
+
+
+def test_stored_heights_are_unorm16_and_the_pyramid_stays_conservative():
+    """The device holds q = round((H - hmin) / (hmax - hmin) 65535) as uint16: dequantized, within
+    half a step of H; the pyramid is built from q itself, so after the device's (monotone)
+    dequantization it bounds the interpolant of the stored heights with no rounding slack."""
+    rng = np.random.default_rng(3)
+    h = rng.random((9, 13)) * 0.37 - 0.05
+    d = tx.Displacement(_tex(h), scale=1.0)
+    buf, index = D.pack_heights([d])
+    assert buf.dtype == np.uint16
+    hoff, moff, levels = next(iter(index.values()))
+    q = buf[hoff:hoff + h.size].reshape(h.shape).astype(np.float64)
+    lo, hi = d.bounds()
+    step = (hi - lo) / 65535
+    hq = lo + q * step
+    assert np.abs(hq - d.heights()).max() <= 0.5 * step + 1e-12
+    pyr = D.minmax_pyramid(q, d.wrap)
+    assert len(pyr) == levels
+    np.testing.assert_array_equal(buf[moff:moff + pyr[0].size], pyr[0].ravel())
+    uu, vv = rng.random(20000), rng.random(20000)
+    val = D.height(hq, uu, vv, d.wrap)
+    cx, cy = np.floor(uu * 13 + 0.5).astype(int), np.floor((1 - vv) * 9 + 0.5).astype(int)
+    for lv in pyr:
+        assert np.all(val >= lo + lv[cy, cx, 0] * step - 1e-12) and np.all(val <= lo + lv[cy, cx, 1] * step + 1e-12)
+        cx, cy = cx // 2, cy // 2
+    assert D.quantize(np.full((2, 2), 0.3)).tolist() == [[0, 0], [0, 0]]

@@ -40,7 +40,7 @@ class CompiledScene:
     features: Features
     bvh: SceneBVH
     displaced: np.ndarray | None = None   # layout.DISPLACED, leaf order (texray.displace)
-    heights: np.ndarray | None = None     # float32 height fields and their min-max pyramids
+    heights: np.ndarray | None = None     # uint16 (unorm over [hmin, hmax]) height fields and their min-max pyramids
 
     def device_bytes(self) -> dict[str, int]:
         """Bytes each uploaded array takes on the device (absent or empty arrays are not uploaded)."""

@@ -102,7 +102,7 @@ QUAD_SHADE = np.dtype([
 # shape DISP_SPHERE / DISP_CYLINDER: centre / origin p, frame e0 = axis_x,
 # e1 = axis_z x axis_x, n = axis_z; cylinder z and theta (radians) ranges.
 # The surface is P(u, v) + H(u, v) n(u, v), H in [hmin, hmax] (world units), read
-# bilinearly from ``heights`` (float32) at texel ``hoff`` (hw x hh, row 0 on top,
+# bilinearly from ``heights`` (uint16: hmin + q (hmax - hmin) / 65535) at texel ``hoff`` (hw x hh, row 0 on top,
 # wrap: kernels/wrap.h); its min-max pyramid (``levels`` levels, (min, max) pairs)
 # starts at ``moff`` (texray.displace.minmax_pyramid). method: texray.displace
 # METHOD_IDS | METHOD_ADAPTIVE; steps N, refine M: the search's knobs. uv: texture
