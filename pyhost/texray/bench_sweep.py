@@ -135,15 +135,11 @@ def plot(sweeps, path):
     for ax, (scene, sw) in zip(axes[0], sweeps.items()):
         disp = sw.get("kind") == "displacement"
         for name, rows in sw["series"].items():
-            if disp and name == "tessellate":        # the reference: error 0, a line at its time
-                ax.axvline(1e3 * rows[0]["frame_s"]["median"], ls="--", color="grey",
-                           label=f"tessellate (reference, {rows[0]['device_mib']:.1f} MiB)")
-                continue
             t = [1e3 * r["frame_s"]["median"] for r in rows]
             e = [r["rmse"] for r in rows]
             ax.plot(t, e, "o-", label=name)
             for r, x, y in zip(rows, t, e):
-                tag = r.get("spp", r.get("steps", ""))
+                tag = r.get("spp", r.get("steps", r.get("resolution", "")))
                 ax.annotate(str(tag), (x, y), textcoords="offset points", xytext=(3, 3), fontsize=7)
         ax.set_xscale("log")
         ax.set_yscale("log")
@@ -222,7 +218,8 @@ def displacement_scenes(names=DISP_SCENES):
 def displacement_series(scene):
     """The displacement sweep's series, one curve per method: the linear + binary search with N
     varying at each M, the adaptive search, maxmip (where every displaced object is a
-    planar parallelogram quad) and the tessellation (one vertex per texel: the reference).
+    planar parallelogram quad) and the tessellation at 1 and 2 vertices per texel (compared
+    like the others with the reference, a tessellation at DISP_REF_RESOLUTION).
     [(series name, [(label, {"method": ..., knobs})])]."""
     out = [(f"search M={m}", [(f"search N={n} M={m}", {"method": "search", "steps": n, "refine": m})
                               for n in DISP_STEPS]) for m in DISP_REFINE]
@@ -231,12 +228,19 @@ def displacement_series(scene):
                                         for n in DISP_ADAPTIVE_STEPS]))
     if _maxmip_applies(scene):
         out.append(("maxmip", [("maxmip", {"method": "maxmip"})]))
-    out.append(("tessellate", [(DISP_REFERENCE, {"method": "tessellate", "resolution": 1})]))
+    out.append(("tessellate", [(f"tessellate {r} vertex/texel", {"method": "tessellate", "resolution": r})
+                               for r in DISP_TESSELLATIONS]))
     return out
 
 
 DISP_ADAPTIVE_STEPS = (8, 32)
-DISP_REFERENCE = "tessellate (1 vertex/texel)"
+DISP_TESSELLATIONS = (1, 2)
+# The reference: the true displaced surface as a tessellation fine enough that its own error
+# is far below every compared setting's (4 vertices per texel and axis: each bilinear cell
+# as 32 flat triangles), so "tessellate 1 vertex/texel" gets an error of its own and the
+# search can be compared with it at equal error.
+DISP_REF_RESOLUTION = 4
+DISP_REFERENCE = f"tessellate ({DISP_REF_RESOLUTION} vertices/texel)"
 
 
 def sweep_displacement(scene, device, width, height, repeat):
@@ -251,6 +255,10 @@ def sweep_displacement(scene, device, width, height, repeat):
 
     from .render import render
     series = displacement_series(scene)
+    ref_scene = with_displacement(scene, "tessellate", resolution=DISP_REF_RESOLUTION)
+    t0 = time.perf_counter()
+    ref = render(ref_scene, width, height, 1, device=device, jitter=False, aovs=("depth", "object_id"))
+    ref_s = time.perf_counter() - t0
     points = {}
     for name, pts in series:
         for label, kw in pts:
@@ -265,10 +273,8 @@ def sweep_displacement(scene, device, width, height, repeat):
                 wall.append(time.perf_counter() - t0)
                 dev.append(r.stats["render_s"])
             points[label] = (first, median_spread(wall), median_spread(dev))
-    ref = points[DISP_REFERENCE][0]
     result = {"kind": "displacement", "width": width, "height": height, "ref_spp": 1, "reference": DISP_REFERENCE,
-              "reference_s": points[DISP_REFERENCE][1]["median"],
-              "reference_device_mib": _mib(ref), "series": {}}
+              "reference_s": ref_s, "reference_device_mib": _mib(ref), "series": {}}
     for name, pts in series:
         rows = []
         for label, kw in pts:
