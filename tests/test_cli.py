@@ -85,6 +85,10 @@ def test_bench_command_writes_json_report_and_compare(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "Mrays/s" in text and "generic/spec." in text and "% wrong first hit" in text
     assert "| globe |" in md.read_text() and "against tessellate (4 vertices/texel)" in md.read_text()
+    md2 = tmp_path / "again.md"
+    assert main(["bench", "--from-json", str(out), "--report", str(md2)]) == 0
+    assert md2.read_text() == md.read_text()
+    capsys.readouterr()
     assert main(["bench", "--compare", str(out), str(out)]) == 0
     cmp = capsys.readouterr().out
     assert "globe frame ms" in cmp and "1.000" in cmp and "terrain maxmip ms" in cmp

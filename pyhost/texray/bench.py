@@ -128,6 +128,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(prog="texray bench", description=__doc__.splitlines()[0])
     ap.add_argument("--compare", nargs=2, metavar=("A.json", "B.json"),
                     help="print ratios B/A between two earlier runs, and exit")
+    ap.add_argument("--from-json", metavar="RUN.json",
+                    help="write --report and --plot for an earlier run instead of running")
     ap.add_argument("--device", action="append",
                     help="device to run on (repeatable; default: every CPU and GPU device found)")
     ap.add_argument("--repeat", type=int, default=5, help="timed runs per figure, after one warm-up (default 5)")
@@ -157,6 +159,12 @@ def main(argv=None):
     out = sys.stdout
     if args.compare:
         return compare(*args.compare, out)
+    if args.from_json:
+        results = json.loads(Path(args.from_json).read_text())
+        for dname, r in results["devices"].items():
+            print_device(dname, r, out)
+        _write_outputs(results, args, out)
+        return 0
     if args.repeat < 1:
         ap.error("--repeat must be >= 1")
     from .compile import compile_scene
@@ -230,6 +238,12 @@ def main(argv=None):
         print_device(dname, r, out)
     Path(args.json).write_text(json.dumps(results, indent=1, default=str))
     out.write(f"\nwrote {args.json}\n")
+    _write_outputs(results, args, out)
+    return 0
+
+
+def _write_outputs(results, args, out):
+    """The plot (--plot) and the markdown report (--report) of a run's results."""
     plot_name = None
     if args.plot and any(d.get("sweeps") for d in results["devices"].values()):
         sweeps = {f"{s} ({dn})" if len(results["devices"]) > 1 else s: sw

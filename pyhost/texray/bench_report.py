@@ -66,8 +66,10 @@ def sweep_rows(sw):
     if sw.get("kind") == "displacement":
         for series, pts in sw["series"].items():
             for p in pts:
+                mrays = sw["width"] * sw["height"] / p["render_s"]["median"] * 1e-6
                 rows.append([series, p["label"], _spread_ms(p["frame_s"]), _spread_ms(p["render_s"]),
-                             f"{p['device_mib']:.2f}", f"{p['rmse']:.4f}", f"{100 * p['wrong_hit']:.2f}"])
+                             f"{mrays:.2f}", f"{p['device_mib']:.2f}", f"{p['rmse']:.4f}",
+                             f"{100 * p['wrong_hit']:.2f}"])
         return rows
     for series, pts in sw["series"].items():
         for p in pts:
@@ -79,7 +81,7 @@ def sweep_rows(sw):
 
 SWEEP_HEADER = ["series", "setting", "frame ms (min-max)", "RMSE", "RMSE / mean", "% pixels off > 0.02"]
 DISP_SWEEP_HEADER = ["series", "setting", "frame ms, setup included (min-max)", "render ms (min-max)",
-                     "device MiB", "RMSE", "% wrong first hit"]
+                     "camera Mrays/s", "device MiB", "RMSE", "% wrong first hit"]
 
 
 def sweep_header(sw):
