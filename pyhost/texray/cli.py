@@ -53,9 +53,11 @@ def _cmd_render(args):
         write_exr_layers(aov_path, image.rgb, image.aov)
         print(f"AOVs ({', '.join(args.aov)}) written to {aov_path}")
     s = image.stats
+    db = s["device_bytes"]
     print(f"{args.output}: {width}x{height}, {spp} spp, {s['triangles']} triangles on {s['device']}: "
           f"render {s['render_s']:.2f} s (program build {s['program_build_s']:.2f} s, "
-          f"scene {s['scene_compile_s']:.2f} s)")
+          f"scene {s['scene_compile_s']:.2f} s); device memory {sum(db.values()) / 2**20:.1f} MiB scene "
+          f"(textures {db.get('texels', 0) / 2**20:.1f}) + {s['ray_buffer_bytes'] / 2**20:.1f} MiB rays")
 
 
 def _cmd_devices(args):
