@@ -16,7 +16,7 @@ class _Progress:
 
     def __call__(self, fraction):
         elapsed = time.perf_counter() - self.t0
-        if elapsed < 1.0 and fraction < 1.0:
+        if not self.shown and elapsed < 1.0:      # renders under a second show no bar at all
             return
         self.shown = True
         bar = "#" * int(30 * fraction)
