@@ -131,8 +131,12 @@ def plot(sweeps, path):
     except ImportError:
         return False
     n = len(sweeps)
-    fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.2), squeeze=False)
-    for ax, (scene, sw) in zip(axes[0], sweeps.items()):
+    cols = min(n, 3)
+    rows = (n + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(5.6 * cols, 4.4 * rows), squeeze=False)
+    for ax in axes.ravel()[n:]:
+        ax.set_visible(False)
+    for ax, (scene, sw) in zip(axes.ravel(), sweeps.items()):
         disp = sw.get("kind") == "displacement"
         for name, rows in sw["series"].items():
             t = [1e3 * r["frame_s"]["median"] for r in rows]
