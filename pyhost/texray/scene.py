@@ -28,8 +28,10 @@ def _number(value, field, where="", lo=None, hi=None, lo_open=False):
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise SceneError(f"{where}{field}: expected a number, got {value!r}")
     v = float(value)
-    if not np.isfinite(v) or (lo is not None and (v <= lo if lo_open else v < lo)) or (hi is not None and v > hi):
-        rng = f"{'(' if lo_open else '['}{lo}, {hi if hi is not None else 'inf'}]"
+    if not np.isfinite(v):
+        raise SceneError(f"{where}{field}: expected a finite number, got {value!r}")
+    if (lo is not None and (v <= lo if lo_open else v < lo)) or (hi is not None and v > hi):
+        rng = f"{'(' if lo_open else '['}{lo if lo is not None else '-inf'}, {hi if hi is not None else 'inf'}]"
         raise SceneError(f"{where}{field}: {value!r} is outside {rng}")
     return v
 
