@@ -151,3 +151,16 @@ def test_build_error_carries_compiler_log():
 def test_unknown_device_is_named():
     with pytest.raises(tx.DeviceError, match=r"no device matches 'no-such-device'"):
         tx.render(tx.Scene(), 4, 4, device="no-such-device")
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: tx.Bump(tx.Texture.from_array(np.ones((2, 2))), height=float("nan")),
+     r"bump\.height: expected a finite number, got nan"),
+    (lambda: tx.Bump(tx.Texture.from_array(np.ones((2, 2))), height=0.1, delta=0.7),
+     r"bump\.delta: 0\.7 is outside \(0\.0, 0\.5\]"),
+    (lambda: tx.Material(shininess=-1.0).validate(), r"shininess: -1\.0 is outside \[0\.0, inf\]"),
+    (lambda: tx.Sphere(radius=float("inf")), r"radius"),
+])
+def test_number_errors_name_field_value_and_range(make, message):
+    with pytest.raises(SceneError, match=message):
+        make()
