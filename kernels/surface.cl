@@ -103,13 +103,14 @@ inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_
     }
 #endif
     /* Texture coordinates with their screen-space derivatives (pbrt-v4 TextureEvalContext):
-     * dp/dx, dp/dy from the camera (differentials.h), only where a trilinear lookup needs them;
+     * dp/dx, dp/dy from the camera (differentials.h), only where a trilinear or anisotropic
+     * lookup needs them;
      * elsewhere zero, which texture.h reads as level 0. */
     float3 dpdx = (float3)(0.0f), dpdy = (float3)(0.0f);
     TexCoord tc;
     tc.uv = g.uv;
     tc.duv_dx = tc.duv_dy = (float2)(0.0f);
-#if TX_FILTER_TRILINEAR
+#if TX_FILTER_TRILINEAR || TX_FILTER_ANISOTROPIC
     camera_dp_dxy(cam, image_w, image_h, differential_scale(spp), dir, h->t, g.ng, &dpdx, &dpdy);
     tc = uv_differentials(g.uv, g.dpdu, g.dpdv, dpdx, dpdy);
 #endif

@@ -6,9 +6,11 @@
  * (wrap.h), UV transform and filter (TextureInfo, texray.layout.TEXTURE).
  *
  * Filters: FILTER_NEAREST (the texel the point falls in, level 0),
- * FILTER_BILINEAR (level 0) and FILTER_TRILINEAR (bilinear in the two MIP
- * levels around the level of detail, blended linearly). The code of a filter is
- * compiled in only when some texture of the scene uses it (TX_FILTER_*).
+ * FILTER_BILINEAR (level 0), FILTER_TRILINEAR (bilinear in the two MIP
+ * levels around the level of detail, blended linearly) and FILTER_ANISOTROPIC
+ * (trilinear probes along the footprint's major axis, texture_anisotropic). The
+ * code of a filter is compiled in only when some texture of the scene uses it
+ * (TX_FILTER_*).
  *
  * MIP levels: level l is max(1, W >> l) x max(1, H >> l) texels, stored right
  * after level l - 1 (texray.texture.mip_pyramid makes them: exact box filter,
@@ -133,14 +135,97 @@ inline float4 texture_trilinear(__global const half* texels, __global const Text
     return c;
 }
 
+#if TX_FILTER_ANISOTROPIC
+/* Anisotropic filtering after Feline (McCormack, Perry, Farkas, Jouppi, "Feline: Fast
+ * Elliptical Lines for Anisotropic Texture Mapping", SIGGRAPH 1999), the scheme of GPU
+ * anisotropic filtering. The pixel footprint in level-0 texels is the ellipse J s,
+ * |s| <= 1/2, J = [a b] (a, b: the screen-x and screen-y steps of (u W, v H), as in
+ * texture_lod); its full axis lengths major >= minor are J's singular values (for an
+ * isotropic footprint both equal texture_lod's rho). The probes are trilinear lookups at
+ * lod = log2(width), width = max(minor, major / max_aniso, 1 texel), evenly spaced on the
+ * segment of length major - width along the major axis, centred on uv:
+ * n = ceil(major / width) of them (clamped to [1, max_aniso]), at most `width` apart, so
+ * together they cover the ellipse's length. Reaching the cap raises width (a coarser
+ * level) instead of leaving gaps. As the footprint turns isotropic the segment shrinks to
+ * a point, so the result tends to trilinear's without a jump. Probe k at distance t_k
+ * from uv weighs exp(-2 x^2), x = t_k / (major / 2) (Feline's Gaussian, alpha = 2),
+ * normalized. The 1-texel floor adds no probes under magnification, where one bilinear
+ * tap already spans a texel. Cost: n (<= max_aniso) trilinear probes sharing one level
+ * walk. Degenerate footprints: major = 0 (zero derivatives) is level 0, one probe; a
+ * non-finite major (inf or NaN derivatives) is one trilinear probe at lod = log2(major)
+ * (inf: the coarsest level; NaN: level 0). tests/reference.py aniso_footprint mirrors this. */
+typedef struct {
+    float2 axis_uv;              /* the major axis' unit vector in texels, in uv per texel */
+    float major, width, spacing; /* level-0 texels: the footprint's length, the probes' width and spacing */
+    int n;                       /* probes */
+} AnisoFootprint;
+
+inline AnisoFootprint texture_aniso_footprint(__global const TextureInfo* ti, float2 duv_dx, float2 duv_dy)
+{
+    float2 s = (float2)((float)ti->width, (float)ti->height);
+    float2 a = duv_dx * s, b = duv_dy * s;
+    /* J J^T = [[A, B], [B, C]]: eigenvalues (A + C) / 2 +- r */
+    float A = a.x * a.x + b.x * b.x, B = a.x * a.y + b.x * b.y, C = a.y * a.y + b.y * b.y;
+    float h = 0.5f * (A - C);
+    float r = hypot(h, B);
+    AnisoFootprint f;
+    f.major = sqrt(0.5f * (A + C) + r);
+    /* minor = |det J| / major: no cancellation (geom.h tx_diff_prod), unlike sqrt of the
+     * smaller eigenvalue */
+    float minor = fabs(tx_diff_prod(a.x, b.y, a.y, b.x)) / f.major;
+    f.width = TX_MAX(TX_MAX(minor, f.major / (float)ti->max_aniso), 1.0f);
+    f.n = (int)TX_MIN(ceil(f.major / f.width), (float)ti->max_aniso);
+    f.n = TX_MAX(f.n, 1);
+    /* The major eigenvector, from whichever row of J J^T - lambda I is well conditioned. */
+    float2 v = h >= 0.0f ? (float2)(h + r, B) : (float2)(B, r - h);
+    float len = hypot(v.x, v.y);
+    float2 axis = len > 0.0f ? v / len : (float2)(1.0f, 0.0f);
+    f.spacing = f.n > 1 ? TX_MAX(f.major - f.width, 0.0f) / (float)(f.n - 1) : 0.0f;
+    f.axis_uv = axis / s;
+    return f;
+}
+
+inline float4 texture_anisotropic(__global const half* texels, __global const TextureInfo* ti, float2 uv,
+                                  float2 duv_dx, float2 duv_dy)
+{
+    AnisoFootprint f = texture_aniso_footprint(ti, duv_dx, duv_dy);
+    if (!(f.major > 0.0f && f.major <= FLT_MAX))
+        return texture_trilinear(texels, ti, uv, log2(f.major));
+    float lod = texture_clamp_lod(ti, log2(f.width));
+    int l0 = (int)lod;
+    float frac = lod - (float)l0;
+    int mode = (int)ti->wrap;
+    TexLevel la = texture_level(ti, l0), lb = texture_next_level(la);
+    float4 sum = (float4)(0.0f);
+    float wsum = 0.0f;
+    for (int k = 0; k < f.n; ++k) {
+        float t = ((float)k - 0.5f * (float)(f.n - 1)) * f.spacing;    /* texels from uv */
+        float x = 2.0f * t / f.major;
+        float w = exp(-2.0f * x * x);
+        float2 p = uv + t * f.axis_uv;
+        float4 c = texture_bilinear_level(texels, la, mode, p);
+        if (frac > 0.0f)
+            c = c * (1.0f - frac) + texture_bilinear_level(texels, lb, mode, p) * frac;
+        sum += w * c;
+        wsum += w;
+    }
+    return sum / wsum;
+}
+#endif
+
 /* The texture's filter at transformed coordinates t (uv and screen derivatives). */
 inline float4 texture_sample(__global const half* texels, __global const TextureInfo* ti, TexCoord t)
 {
-#if TX_FILTER_TRILINEAR && !TX_FILTER_NEAREST && !TX_FILTER_BILINEAR
+#if TX_FILTER_ANISOTROPIC && !TX_FILTER_NEAREST && !TX_FILTER_BILINEAR && !TX_FILTER_TRILINEAR
+    return texture_anisotropic(texels, ti, t.uv, t.duv_dx, t.duv_dy);
+#elif TX_FILTER_TRILINEAR && !TX_FILTER_NEAREST && !TX_FILTER_BILINEAR && !TX_FILTER_ANISOTROPIC
     return texture_trilinear(texels, ti, t.uv, texture_lod(ti, t.duv_dx, t.duv_dy));
-#elif TX_FILTER_NEAREST && !TX_FILTER_TRILINEAR && !TX_FILTER_BILINEAR
+#elif TX_FILTER_NEAREST && !TX_FILTER_TRILINEAR && !TX_FILTER_BILINEAR && !TX_FILTER_ANISOTROPIC
     return texture_nearest(texels, ti, t.uv);
 #else
+#if TX_FILTER_ANISOTROPIC
+    if (ti->filter == FILTER_ANISOTROPIC) return texture_anisotropic(texels, ti, t.uv, t.duv_dx, t.duv_dy);
+#endif
 #if TX_FILTER_TRILINEAR
     if (ti->filter == FILTER_TRILINEAR) return texture_trilinear(texels, ti, t.uv, texture_lod(ti, t.duv_dx, t.duv_dy));
 #endif
@@ -167,7 +252,7 @@ inline float texture_eval_lod(__global const TextureInfo* ti, TexCoord tc)
 
 /* Contract: the (du, dv) size, in the texture's transformed coordinates, of one texel
  * of the MIP level a lookup at `lod` reads first (level floor(clamped lod); level 0
- * for a texture without MIP levels, i.e. any filter but trilinear). */
+ * for a texture without MIP levels, i.e. any filter but trilinear and anisotropic). */
 inline float2 texture_texel_size(__global const TextureInfo* ti, float lod)
 {
     TexLevel lv = texture_level(ti, (int)texture_clamp_lod(ti, lod));

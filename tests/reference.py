@@ -182,6 +182,8 @@ def sample(cs, tex_id, uv, duv_dx=None, duv_dy=None):
         return levels[0][y, x]
     if filt == 1 or duv_dx is None:
         return bilinear_level(levels[0], uv, mode)
+    if filt == 3:
+        return anisotropic(t, levels, uv, duv_dx @ a.T, duv_dy @ a.T, mode)
     lod = texture_lod(t, duv_dx @ a.T, duv_dy @ a.T)
     return trilinear(levels, uv, lod, mode)
 
@@ -233,3 +235,53 @@ def apply_texture_roles(cs, mats, uv, kd, ks, shin):
     sh, has = _role(cs, mats, "shininess_tex", uv)
     shin = np.where(has, shin * sh[:, 0], shin)
     return kd, ks, shin
+
+
+def aniso_footprint(t, duv_dx, duv_dy):
+    """kernels/texture.h texture_aniso_footprint in float64: (major, width, n, spacing, axis_uv)
+    of the footprints whose transformed screen derivatives are (N, 2) duv_dx, duv_dy: the
+    singular values of J = [a b] in level-0 texels (full axis lengths), the probes' width
+    max(minor, major / max_aniso, 1), their number ceil(major / width) in [1, max_aniso], their
+    spacing on the segment of length major - width, and the major axis in uv per texel."""
+    s = np.array([float(t["width"]), float(t["height"])])
+    cap = float(t["max_aniso"])
+    a, b = duv_dx * s, duv_dy * s
+    J = np.stack([a, b], axis=2)                                  # (N, 2, 2), columns a, b
+    with np.errstate(invalid="ignore", over="ignore"):
+        ok = np.all(np.isfinite(J), axis=(1, 2))
+        Jf = np.where(ok[:, None, None], J, 0.0)
+        U, sv, _ = np.linalg.svd(Jf)
+        major = np.where(ok, sv[:, 0], np.nan)
+        with np.errstate(divide="ignore"):
+            minor = sv[:, 1]
+            width = np.maximum(np.maximum(minor, major / cap), 1.0)
+            n = np.clip(np.ceil(major / width), 1, cap)
+            n = np.where(np.isfinite(n), n, 1).astype(np.int64)
+            spacing = np.where(n > 1, np.maximum(major - width, 0) / np.maximum(n - 1, 1), 0.0)
+    axis_uv = U[:, :, 0] / s
+    return major, width, n, spacing, axis_uv
+
+
+def anisotropic(t, levels, uv, duv_dx, duv_dy, mode):
+    """kernels/texture.h texture_anisotropic in float64 (derivatives already transformed)."""
+    major, width, n, spacing, axis_uv = aniso_footprint(t, duv_dx, duv_dy)
+    out = np.zeros((len(uv), 4))
+    bad = ~(np.isfinite(major) & (major > 0))
+    if bad.any():                                     # one trilinear probe at lod log2(major)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[bad] = trilinear(levels, uv[bad], np.log2(major[bad]), mode)
+    good = ~bad
+    if not good.any():
+        return out
+    lod = np.log2(width[good])
+    acc, wsum = np.zeros((good.sum(), 4)), np.zeros(good.sum())
+    ng = n[good]
+    for k in range(int(ng.max())):
+        on = k < ng
+        tk = (k - 0.5 * (ng - 1)) * spacing[good]
+        w = np.where(on, np.exp(-2.0 * (2.0 * tk / major[good]) ** 2), 0.0)
+        p = uv[good] + tk[:, None] * axis_uv[good]
+        acc += w[:, None] * trilinear(levels, p, lod, mode)
+        wsum += w
+    out[good] = acc / wsum[:, None]
+    return out

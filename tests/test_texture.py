@@ -13,6 +13,8 @@
 """
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import OpenImageIO as oiio
 import pytest
@@ -203,7 +205,7 @@ def test_non_finite_texels_are_errors(tmp_path):
 
 def test_bad_arguments_name_the_field():
     with pytest.raises(SceneError, match=r"texture\.filter: <array>: expected one of nearest, bilinear, trilinear, "
-                                         r"got 'cubic'"):
+                                         r"anisotropic, got 'cubic'"):
         tx.Texture.from_array(np.ones((2, 2)), filter="cubic")
     with pytest.raises(SceneError, match=r"expected an \(H, W\) or \(H, W, 1\.\.4\) image, got shape \(2, 2, 5\)"):
         tx.Texture.from_array(np.ones((2, 2, 5)))
@@ -294,6 +296,24 @@ def test_only_trilinear_textures_get_levels():
     assert cs.features.filter_nearest and not cs.features.filter_trilinear
 
 
+def test_anisotropic_textures_get_levels_and_their_bound():
+    img = np.random.default_rng(3).uniform(size=(8, 5, 3))
+    ani = tx.Texture.from_array(img, filter="anisotropic", max_aniso=4)
+    assert ani.max_aniso == 4 and ani.with_options(filter="bilinear").max_aniso == 4
+    assert tx.Texture.from_array(img).max_aniso == txt.DEFAULT_MAX_ANISO == 16
+    cs = compile_scene(_scene(tx.Material(diffuse=ani, specular=ani.with_options(filter="trilinear"))))
+    assert list(cs.textures["levels"]) == [len(txt.level_sizes(8, 5))] * 2
+    assert list(cs.textures["filter"]) == [3, 2] and list(cs.textures["max_aniso"]) == [4, 4]
+    assert cs.features.filter_anisotropic and cs.features.filter_trilinear and not cs.features.filter_bilinear
+    cs = compile_scene(_scene(tx.Material(diffuse=tx.Texture.from_array(img))), texture_filter="anisotropic")
+    assert cs.features.filter_anisotropic and cs.textures["levels"][0] > 1
+    assert not compile_scene(_scene(tx.Material(diffuse=ani)), texture_filter="trilinear").features.filter_anisotropic
+    for bad in (0, 65, 2.5, True, "8", None):
+        with pytest.raises(SceneError, match=r"texture\.max_aniso: <array>: expected an integer in 1\.\.64, got "
+                                             + re.escape(repr(bad))):
+            tx.Texture.from_array(img, filter="anisotropic", max_aniso=bad)
+
+
 def test_procedural_constructors():
     t = tx.Texture.procedural("checker", size=16, n_checks=2, filter="trilinear")
     assert t.colorspace == "srgb" and t.shape == (16, 16) and t.filter == "trilinear"
@@ -318,6 +338,7 @@ eye = [0, 3, 0.01]
 [textures.logo]
 file = "logo.png"
 filter = "trilinear"
+max_aniso = 8
 [textures.gloss]
 procedural = "noise"
 params = { size = 16, seed = 2 }
@@ -341,7 +362,8 @@ def test_scene_file_roles(tmp_path):
     _write(tmp_path / "logo.png", np.full((4, 4, 4), 0.5, np.float32), "uint8")
     (tmp_path / "s.toml").write_text(_SCENE)
     m = tx.Scene.load(tmp_path / "s.toml").objects[0].material
-    assert m.specular.filter == "trilinear" and m.specular.colorspace == "srgb"
+    assert m.specular.filter == "trilinear" and m.specular.colorspace == "srgb" and m.specular.max_aniso == 8
+    assert m.shininess_map.max_aniso == 16
     assert m.shininess_map.name == "<noise>" and m.shininess_map.channels == 1
     assert isinstance(m.label, tx.Label) and m.label.texture is m.specular
     assert m.label.uv_transform.scale == (2.0, 2.0) and m.label.device_texture.wrap == "clamp"
@@ -353,6 +375,11 @@ def test_scene_file_roles(tmp_path):
         ('specular = "logo"', 'specular = "spec"', r"materials\.m\.specular: no texture named 'spec'"),
         ('shininess_map = "gloss"', "shininess_map = 3", r"materials\.m\.shininess_map: expected str, got 3"),
         ('filter = "trilinear"', 'filter = "mip"', r"textures\.logo\.file\.filter: .*got 'mip'"),
+        ("max_aniso = 8", "max_aniso = 0",
+         r"s\.toml: textures\.logo\.file\.max_aniso: \S*logo\.png: expected an integer in 1\.\.64, got 0"),
+        ("max_aniso = 8", "max_aniso = 8.5", r"textures\.logo\.max_aniso: expected int"),
+        ('procedural = "noise"', 'procedural = "noise"\nmax_aniso = 99',
+         r"textures\.gloss\.texture\.max_aniso: <noise>: expected an integer in 1\.\.64, got 99"),
         ('params = { size = 16, seed = 2 }', 'params = { size = 16, octave = 2 }',
          r"textures\.gloss\.texture\.procedural: noise: .*'octave'"),
         ('procedural = "noise"', 'procedural = "noise"\nfile = "logo.png"',

@@ -22,7 +22,7 @@ from .bench_suite import median_spread
 
 SPP_VALUES = (1, 2, 4, 8, 16, 32, 64)
 FILTER_SPP = (1, 4, 16)
-FILTERS = ("nearest", "bilinear", "trilinear")
+FILTERS = ("nearest", "bilinear", "trilinear", "anisotropic")
 # Bump steps, in texels of the height texture ("analytic": the exact gradient of the
 # bilinear interpolant, which the reference uses), each at BUMP_SPP samples.
 BUMP_DELTAS = ("analytic", 0.5, 1, 2, 4, 8)

@@ -326,7 +326,8 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
                         spheres=len(spheres) > 0, cylinders=len(cylinders) > 0, quads=len(quad_verts) > 0,
                         projections=any(o.mapping is not None for o in scene.objects),
                         filter_nearest="nearest" in filters, filter_bilinear="bilinear" in filters,
-                        filter_trilinear="trilinear" in filters, specular_maps="specular_tex" in slots,
+                        filter_trilinear="trilinear" in filters,
+                        filter_anisotropic="anisotropic" in filters, specular_maps="specular_tex" in slots,
                         shininess_maps="shininess_tex" in slots, labels="label_tex" in slots,
                         bump=any(m.bump is not None for m in mats.materials),
                         normal_maps=any(m.normal_map is not None for m in mats.materials),
@@ -372,7 +373,7 @@ def _object_space_normals(obj):
 def _pack_textures(entries):
     """One texture table and one shared half-float RGBA texel buffer, or (None, None), for
     (Texture, kind) entries (texray.texture.pack: each distinct pixels-and-kind packed once,
-    with MIP levels for trilinear textures)."""
+    with MIP levels for trilinear and anisotropic textures)."""
     if not entries:
         return None, None
     return _pack_texture_entries(entries)

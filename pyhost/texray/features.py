@@ -20,6 +20,7 @@ class Features:
     filter_nearest: bool = False   # some texture filters nearest / bilinear / trilinear (texray.texture.FILTERS);
     filter_bilinear: bool = False  # trilinear also computes ray differentials in the surface stage
     filter_trilinear: bool = False
+    filter_anisotropic: bool = False   # some texture filters anisotropically (MIP levels, ray differentials)
     specular_maps: bool = False    # some material's ks is a texture
     shininess_maps: bool = False   # some material has a shininess_map
     labels: bool = False           # some material has a label
@@ -90,6 +91,7 @@ def compile_options(f: Features) -> dict[str, int]:
         "TX_FILTER_NEAREST": int(f.filter_nearest),
         "TX_FILTER_BILINEAR": int(f.filter_bilinear),
         "TX_FILTER_TRILINEAR": int(f.filter_trilinear),
+        "TX_FILTER_ANISOTROPIC": int(f.filter_anisotropic),
         "TX_SPECULAR_MAPS": int(f.specular_maps),
         "TX_SHININESS_MAPS": int(f.shininess_maps),
         "TX_LABELS": int(f.labels),

@@ -140,7 +140,7 @@ TX_NORMAL_OBJECT = 2
 BUMP_DELTA_TEXEL = 0.0
 BUMP_DELTA_ANALYTIC = -1.0
 
-# --- Texture table entry: 48 bytes ------------------------------------------
+# --- Texture table entry: 64 bytes ------------------------------------------
 # Texels are RGBA half floats, linear (texray.texture: decoded per role), row 0 =
 # the file's top row. A texture's ``levels`` MIP levels (1 = level 0 only) lie
 # contiguously from texel ``offset`` of the shared buffer: level l is
@@ -148,13 +148,15 @@ BUMP_DELTA_ANALYTIC = -1.0
 # before it (kernels/texture.h texture_level). ``wrap``: kernels/wrap.h
 # TX_WRAP_*; ``filter``: FILTER_* below. The lookup coordinates are
 # (u', v') = (m0[0] u + m0[1] v + m1[0], m0[2] u + m0[3] v + m1[1]): the
-# texture's UV transform (texray.mapping.UVTransform).
+# texture's UV transform (texray.mapping.UVTransform). ``max_aniso``: the most
+# probes an anisotropic lookup takes (kernels/texture.h texture_anisotropic).
 TEXTURE = np.dtype([
     ("offset", "<u4"), ("width", "<u4"), ("height", "<u4"), ("wrap", "<u4"),
     ("m0", "<f4", (4,)),
     ("m1", "<f4", (2,)), ("levels", "<u4"), ("filter", "<u4"),
+    ("max_aniso", "<u4"), ("pad0", "<u4", (3,)),
 ])
-FILTER_NEAREST, FILTER_BILINEAR, FILTER_TRILINEAR = 0, 1, 2     # texray.texture.FILTERS
+FILTER_NEAREST, FILTER_BILINEAR, FILTER_TRILINEAR, FILTER_ANISOTROPIC = 0, 1, 2, 3     # texray.texture.FILTERS
 
 # --- Per-object data: 128 bytes -----------------------------------------------
 # mapping: -1 = the primitive's own uv, else kernels/mapping.h TX_MAP_* with
@@ -232,6 +234,7 @@ CONSTANTS = {
     "TRI_HAS_NORMALS": TRI_HAS_NORMALS,
     "TRI_HAS_UVS": TRI_HAS_UVS,
     "FILTER_NEAREST": FILTER_NEAREST, "FILTER_BILINEAR": FILTER_BILINEAR, "FILTER_TRILINEAR": FILTER_TRILINEAR,
+    "FILTER_ANISOTROPIC": FILTER_ANISOTROPIC,
     "TX_NORMAL_DIRECTX": TX_NORMAL_DIRECTX, "TX_NORMAL_OBJECT": TX_NORMAL_OBJECT,
 }
 

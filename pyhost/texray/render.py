@@ -112,8 +112,8 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     compiled: the result of :func:`texray.compile.compile_scene` for this
     scene, to skip compiling it again (the BVH of a big mesh takes seconds);
     it is not modified.
-    texture_filter: None (each texture's own filter) or "nearest", "bilinear" or
-    "trilinear" for every texture (texray.texture.FILTERS); for a precompiled
+    texture_filter: None (each texture's own filter) or "nearest", "bilinear",
+    "trilinear" or "anisotropic" for every texture (texray.texture.FILTERS); for a precompiled
     scene pass it to compile_scene instead.
     """
     width, height, spp = _positive_int(width, "width"), _positive_int(height, "height"), _positive_int(spp, "spp")

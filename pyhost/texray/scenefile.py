@@ -19,7 +19,7 @@ from .bump import Bump, NormalMap
 from .displace import Displacement
 from .errors import SceneError
 from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sphere, Texture
-from .texture import Label
+from .texture import DEFAULT_MAX_ANISO, Label
 from .mapping import WRAP_MODES, Projection, UVTransform
 from .transform import Transform
 
@@ -33,7 +33,7 @@ _SCHEMA = {
     "render": {"width": int, "height": int, "spp": int, "seed": int},
     "lights": {"position": _VEC, "intensity": _VEC},
     "textures": {"file": str, "colorspace": str, "wrap": str, "uv_transform": dict, "filter": str,
-                 "procedural": str, "params": dict},
+                 "max_aniso": int, "procedural": str, "params": dict},
     "label": {"texture": str, "uv_transform": dict},
     "bump": {"texture": str, "height": _NUM, "delta": (int, float, str)},
     "normal_map": {"texture": str, "convention": str, "space": str},
@@ -159,7 +159,8 @@ def _texture(tt, name, base, uvt):
         raise SceneError(f"{where}: expected exactly one of 'file' or 'procedural'")
     if "params" in tt and "procedural" not in tt:
         raise SceneError(f"{where}.params: only with 'procedural'")
-    opts = {"filter": tt.get("filter", "bilinear"), "wrap": tt.get("wrap", "repeat"), "uv_transform": uvt}
+    opts = {"filter": tt.get("filter", "bilinear"), "wrap": tt.get("wrap", "repeat"), "uv_transform": uvt,
+            "max_aniso": tt.get("max_aniso", DEFAULT_MAX_ANISO)}
     if "file" in tt:
         return Texture.load(base / tt["file"], colorspace=tt.get("colorspace", "auto"), field=f"{where}.file",
                             **opts)

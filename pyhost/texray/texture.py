@@ -19,7 +19,10 @@ Filters (``filter=``): ``"nearest"`` (the texel the point falls in),
 ``"bilinear"`` (the default: the four nearest texels, level 0 only) and
 ``"trilinear"`` (bilinear in the two MIP levels around the pixel footprint's
 level of detail, blended; the footprint comes from ray differentials, see
-kernels/texture.h). Only trilinear textures get MIP levels.
+kernels/texture.h) and ``"anisotropic"`` (up to ``max_aniso`` trilinear probes
+along the footprint's major axis at the level of its minor axis, Gaussian
+weighted: Feline, McCormack et al. 1999). Only trilinear and anisotropic
+textures get MIP levels.
 """
 from __future__ import annotations
 
@@ -30,7 +33,10 @@ import numpy as np
 from .colour import srgb_to_linear
 from .errors import SceneError
 
-FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2}      # layout FILTER_* / TextureInfo.filter
+FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}   # layout FILTER_* / TextureInfo.filter
+MIP_FILTERS = ("trilinear", "anisotropic")       # the filters that read MIP levels
+DEFAULT_MAX_ANISO = 16        # probes of an anisotropic lookup (GPUs' usual maximum, 16:1)
+MAX_ANISO_LIMIT = 64          # beyond this a probe costs more than it adds at any angle a pixel sees
 COLORSPACES = ("auto", "srgb", "linear")
 KINDS = ("colour", "label", "data")
 HALF_MAX = 65504.0            # largest finite half float: texels are stored as halves
@@ -48,14 +54,17 @@ class Texture:
     colour. Colour roles decode sRGB, data roles (shininess, height, normal
     maps) use the stored values whatever this says. 1 channel is grey, 2 are
     grey + alpha, 3 RGB, 4 RGBA; missing alpha is 1.
-    ``filter``: "nearest", "bilinear" (default) or "trilinear" (MIP mapped).
+    ``filter``: "nearest", "bilinear" (default), "trilinear" or "anisotropic" (MIP mapped).
+    ``max_aniso``: the most probes an anisotropic lookup takes (an int in 1..64,
+    default 16): footprints longer than ``max_aniso`` times their width are read at a
+    coarser level so that the probes still cover them. Kept, unused, by other filters.
     ``wrap``: "repeat", "clamp" or "mirror" outside [0, 1]. ``uv_transform``:
     a :class:`texray.mapping.UVTransform` applied to the lookup coordinates.
     :meth:`with_options` makes a texture sharing the pixels (uploaded once).
     """
 
     def __init__(self, pixels: np.ndarray, name: str = "<array>", colorspace="linear", wrap="repeat",
-                 uv_transform=None, filter="bilinear", field="texture"):
+                 uv_transform=None, filter="bilinear", field="texture", max_aniso=DEFAULT_MAX_ANISO):
         from .mapping import WRAP_MODES, UVTransform
         self.name = name
         self.field = field
@@ -67,6 +76,10 @@ class Texture:
             raise SceneError(f"{field}.filter: {name}: expected one of {', '.join(FILTERS)}, got {filter!r}")
         if uv_transform is not None and not isinstance(uv_transform, UVTransform):
             raise SceneError(f"{field}.uv_transform: {name}: expected a texray.UVTransform, got {uv_transform!r}")
+        if (isinstance(max_aniso, (bool, np.bool_)) or not isinstance(max_aniso, (int, np.integer))
+                or not 1 <= max_aniso <= MAX_ANISO_LIMIT):
+            raise SceneError(f"{field}.max_aniso: {name}: expected an integer in 1..{MAX_ANISO_LIMIT}, "
+                             f"got {max_aniso!r}")
         if uv_transform is not None:
             uv_transform.validate()
         if isinstance(pixels, _Pixels):
@@ -74,10 +87,12 @@ class Texture:
         else:
             self._pixels = _Pixels(_check_pixels(pixels, name, field), colorspace)
         self.wrap, self.uv_transform, self.filter = wrap, uv_transform, filter
+        self.max_aniso = int(max_aniso)
 
     # --- construction --------------------------------------------------------
     @classmethod
-    def load(cls, path, colorspace="auto", filter="bilinear", wrap="repeat", uv_transform=None, field="texture"):
+    def load(cls, path, colorspace="auto", filter="bilinear", wrap="repeat", uv_transform=None, field="texture",
+             max_aniso=DEFAULT_MAX_ANISO):
         """Read PNG, JPEG, TIFF, EXR, HDR (anything OpenImageIO reads; 8/16-bit, half, float;
         1-4 channels). ``colorspace="auto"`` takes the file's ``oiio:ColorSpace`` (sRGB or
         linear names), else integer pixels are sRGB and half/float pixels linear. An
@@ -88,17 +103,18 @@ class Texture:
         pixels, file_cs, is_float = _read(path, field)
         if colorspace == "auto":
             colorspace = _auto_colorspace(file_cs, is_float, path, field)
-        return cls(pixels, str(path), colorspace, wrap, uv_transform, filter, field)
+        return cls(pixels, str(path), colorspace, wrap, uv_transform, filter, field, max_aniso)
 
     @classmethod
     def from_array(cls, array, colorspace="linear", name="<array>", field="texture", wrap="repeat",
-                   uv_transform=None, filter="bilinear"):
+                   uv_transform=None, filter="bilinear", max_aniso=DEFAULT_MAX_ANISO):
         """A texture from (H, W) or (H, W, C) numbers, C in 1..4; row 0 is the top row.
         ``colorspace``: how the numbers encode colour ("linear" or "srgb")."""
-        return cls(array, name, colorspace, wrap, uv_transform, filter, field)
+        return cls(array, name, colorspace, wrap, uv_transform, filter, field, max_aniso)
 
     @classmethod
-    def procedural(cls, kind, filter="bilinear", wrap="repeat", uv_transform=None, **params):
+    def procedural(cls, kind, filter="bilinear", wrap="repeat", uv_transform=None, max_aniso=DEFAULT_MAX_ANISO,
+                   **params):
         """A texture from :mod:`texray.procedural`: ``kind`` is one of :data:`PROCEDURAL`
         ("checker", "bricks", "bricks_height", "noise", "wood", "marble", "tiles", "globe",
         "label"); ``params`` go to the generator (``size``, ``seed``...). Colours are
@@ -110,13 +126,14 @@ class Texture:
             pixels = make(**params)
         except TypeError as e:
             raise SceneError(f"texture.procedural: {kind}: {e}") from None
-        return cls(pixels, f"<{kind}>", colorspace, wrap, uv_transform, filter)
+        return cls(pixels, f"<{kind}>", colorspace, wrap, uv_transform, filter, max_aniso=max_aniso)
 
-    def with_options(self, wrap=None, uv_transform=None, filter=None):
-        """The same pixels (uploaded once) with another wrap mode, UV transform and/or filter."""
+    def with_options(self, wrap=None, uv_transform=None, filter=None, max_aniso=None):
+        """The same pixels (uploaded once) with another wrap mode, UV transform, filter and/or
+        anisotropy bound."""
         return Texture(self._pixels, self.name, self.colorspace, wrap or self.wrap,
                        uv_transform if uv_transform is not None else self.uv_transform,
-                       filter or self.filter, self.field)
+                       filter or self.filter, self.field, self.max_aniso if max_aniso is None else max_aniso)
 
     # --- what the pixels are -------------------------------------------------
     @property
@@ -326,7 +343,7 @@ def pack(entries):
     in table order; ``(layout.TEXTURE array, float16 texels (T*4,))``.
 
     Each distinct (pixels, kind) is packed once, with its MIP levels when some entry using
-    it filters trilinearly (its other entries read level 0). Levels are contiguous: level l
+    it filters trilinearly or anisotropically (its other entries read level 0). Levels are contiguous: level l
     starts ``sum_{k<l} w_k h_k`` texels after the entry's ``offset`` (kernels/texture.h
     computes this from width and height). Raises SceneError when the texels exceed the
     32-bit texel offsets."""
@@ -338,7 +355,7 @@ def pack(entries):
         if key not in mip:
             keys.append((key, t, kind))
             mip[key] = False
-        mip[key] |= t.filter == "trilinear"
+        mip[key] |= t.filter in MIP_FILTERS
     blocks, offsets, nlevels, total = [], {}, {}, 0
     for key, t, kind in keys:
         levels = t.levels(kind, mip=mip[key])
@@ -355,7 +372,8 @@ def pack(entries):
         table[i]["height"], table[i]["width"] = t.shape
         table[i]["wrap"] = WRAP_MODES[t.wrap]
         table[i]["filter"] = FILTERS[t.filter]
-        table[i]["levels"] = nlevels[key] if t.filter == "trilinear" else 1
+        table[i]["levels"] = nlevels[key] if t.filter in MIP_FILTERS else 1
+        table[i]["max_aniso"] = t.max_aniso
         table[i]["m0"], table[i]["m1"] = (t.uv_transform or UVTransform()).device_args()
     # Half floats top out at 65504: clamp so that bright HDR texels stay finite.
     texels = np.clip(np.concatenate(blocks), -HALF_MAX, HALF_MAX).astype(np.float16).ravel()
