@@ -44,8 +44,7 @@ typedef struct {
     float z_mid;           /* axial coordinate of the closest approach (aimed rays) */
     float fz;              /* f . axis_z (other rays) */
     int aimed;             /* which of the two: see cylinder_ray */
-    float t_near, t_far;   /* the roots, sorted */
-    int near_ok, far_ok;   /* 0 for a root that is the surface the ray starts on (see below) */
+    QuadRoots roots;       /* sorted; not ok: the surface the ray starts on (see below) */
 } CylRay;
 
 /* Two ways to the signed distance w = l |d_perp| and to the hit's axial
@@ -84,14 +83,7 @@ inline CylRay cylinder_ray(__global const Cylinder* cy, float3 org, float3 dir)
     c.radial_mid = (w / c.a) * d_cross_z;
     c.z_mid = -dot3(f_cross_d, d_cross_z) / c.a;
     c.fz = dot3(fh, az) + dot3(fl, az);
-    float q = -(c.b + copysign(sqrt(c.a * c.disc), c.b));
-    float t_small = c.c / q, t_large = q / c.a;        /* |c/q| <= |q/a| */
-    int c_ok = fabs(c.c) > c.c_err;
-    int small_first = t_small <= t_large;
-    c.t_near = small_first ? t_small : t_large;
-    c.t_far = small_first ? t_large : t_small;
-    c.near_ok = small_first ? c_ok : 1;
-    c.far_ok = small_first ? 1 : c_ok;
+    c.roots = stable_roots(c.a, c.b, c.c, sqrt(c.a * c.disc), fabs(c.c) > c.c_err);
     return c;
 }
 
@@ -142,12 +134,12 @@ inline int cylinder_intersect(__global const Cylinder* cy, float3 org, float3 di
     if (!(r > 0.0f && cy->z_max > cy->z_min && span > 0.0f)) return 0;
     CylRay c = cylinder_ray(cy, org, dir);
     if (!(c.a > 0.0f && c.disc >= 0.0f)) return 0;
-    if (c.near_ok && cylinder_in_range(cy, &c, c.t_near, -1.0f, tmin, tmax, span)) {
-        *t = c.t_near;
+    if (c.roots.near_ok && cylinder_in_range(cy, &c, c.roots.t_near, -1.0f, tmin, tmax, span)) {
+        *t = c.roots.t_near;
         return 1;
     }
-    if (c.far_ok && cylinder_in_range(cy, &c, c.t_far, 1.0f, tmin, tmax, span)) {
-        *t = c.t_far;
+    if (c.roots.far_ok && cylinder_in_range(cy, &c, c.roots.t_far, 1.0f, tmin, tmax, span)) {
+        *t = c.roots.t_far;
         return 1;
     }
     return 0;
@@ -158,10 +150,10 @@ inline int cylinder_intersect(__global const Cylinder* cy, float3 org, float3 di
  * cylinder_intersect took the near one if it was ok and in range. */
 inline int cylinder_root_is_near(__global const Cylinder* cy, const CylRay* c, float t)
 {
-    if (c->t_near == c->t_far)
-        return c->near_ok
+    if (c->roots.t_near == c->roots.t_far)
+        return c->roots.near_ok
             && cylinder_in_range(cy, c, t, -1.0f, -INFINITY, INFINITY, cy->theta_max - cy->theta_min);
-    return fabs(t - c->t_near) <= fabs(t - c->t_far);
+    return fabs(t - c->roots.t_near) <= fabs(t - c->roots.t_far);
 }
 
 /* Geometry of the hit at t found by cylinder_intersect: the root's point

@@ -64,6 +64,26 @@ inline void tx_two_diff3(float3 a, float3 b, float3* hi, float3* lo)
 
 /* v / |v| without overflow or underflow at any scale (v is first divided by
  * its largest component); `fallback` where v is zero or not finite. */
+/* The roots of a t^2 + 2 b t + c = 0 (b: half the linear coefficient), given root =
+ * sqrt(b^2 - a c) computed by the caller as accurately as its geometry allows: q =
+ * -(b + sign(b) root), then c/q and q/a, which never subtract nearly equal numbers
+ * (|c/q| <= |q/a|); sorted. c_ok = 0 marks the root c/q, which is 0 when c is, as the
+ * surface the ray starts on rather than a hit. */
+typedef struct {
+    float t_near, t_far;
+    int near_ok, far_ok;
+} QuadRoots;
+
+inline QuadRoots stable_roots(float a, float b, float c, float root, int c_ok)
+{
+    float q = -(b + copysign(root, b));
+    float t_small = c / q, t_large = q / a;
+    int small_first = t_small <= t_large;
+    QuadRoots r = { small_first ? t_small : t_large, small_first ? t_large : t_small,
+                    small_first ? c_ok : 1, small_first ? 1 : c_ok };
+    return r;
+}
+
 inline float3 tx_unit_or(float3 v, float3 fallback)
 {
     float m = TX_MAX(TX_MAX(fabs(v.x), fabs(v.y)), fabs(v.z));

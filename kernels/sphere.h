@@ -54,8 +54,7 @@ inline float sphere_c(float3 fh, float3 fl, float r)
 typedef struct {
     float3 fh, fl, w;
     float a, disc;
-    float t_near, t_far;
-    int near_ok, far_ok;
+    QuadRoots roots;
 } SphereRay;
 
 inline SphereRay sphere_ray(float3 centre, float r, float3 org, float3 dir)
@@ -69,13 +68,7 @@ inline SphereRay sphere_ray(float3 centre, float r, float3 org, float3 dir)
     float c = sphere_c(s.fh, s.fl, r);
     float g6 = gamma_n(6.0f);
     int c_ok = fabs(c) > 2.0f * g6 * g6 * (dot3(s.fh, s.fh) + r * r);
-    float q = -(b + copysign(sqrt(s.a * s.disc), b));
-    float t_small = c / q, t_large = q / s.a;                 /* |c/q| <= |q/a| */
-    int small_first = t_small <= t_large;
-    s.t_near = small_first ? t_small : t_large;
-    s.t_far = small_first ? t_large : t_small;
-    s.near_ok = small_first ? c_ok : 1;
-    s.far_ok = small_first ? 1 : c_ok;
+    s.roots = stable_roots(s.a, b, c, sqrt(s.a * s.disc), c_ok);
     return s;
 }
 
@@ -88,12 +81,12 @@ inline int sphere_intersect(__global const Sphere* s, float3 org, float3 dir, fl
     if (!(cr.w > 0.0f && dot3(dir, dir) > 0.0f)) return 0;
     SphereRay sr = sphere_ray(cr.xyz, cr.w, org, dir);
     if (!(sr.disc >= 0.0f)) return 0;
-    if (sr.near_ok && sr.t_near > tmin && sr.t_near < tmax) {
-        *t = sr.t_near;
+    if (sr.roots.near_ok && sr.roots.t_near > tmin && sr.roots.t_near < tmax) {
+        *t = sr.roots.t_near;
         return 1;
     }
-    if (sr.far_ok && sr.t_far > tmin && sr.t_far < tmax) {
-        *t = sr.t_far;
+    if (sr.roots.far_ok && sr.roots.t_far > tmin && sr.roots.t_far < tmax) {
+        *t = sr.roots.t_far;
         return 1;
     }
     return 0;
@@ -107,8 +100,8 @@ inline int sphere_intersect(__global const Sphere* s, float3 org, float3 dir, fl
  * was ok. */
 inline int sphere_root_is_near(const SphereRay* sr, float t)
 {
-    if (sr->t_near == sr->t_far) return sr->near_ok;
-    return fabs(t - sr->t_near) <= fabs(t - sr->t_far);
+    if (sr->roots.t_near == sr->roots.t_far) return sr->roots.near_ok;
+    return fabs(t - sr->roots.t_near) <= fabs(t - sr->roots.t_far);
 }
 
 /* Geometry of the hit at t found by sphere_intersect.

@@ -127,23 +127,21 @@ inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_
     /* The outward shading normal (the vertex normals' side for meshes with them); a bump
      * or normal map replaces it in that frame (bump.h), before normals face the ray. */
     float3 n_out = vertex_normal ? normalize3(ns_raw) : g.ng;
-#if TX_BUMP || TX_NORMAL_MAPS
-    __global const Material* mn = materials + material;
-#endif
+    __global const Material* m = materials + material;
 #if TX_BUMP
-    if (mn->bump_tex >= 0)
-        n_out = bump_normal(n_out, g.dpdu, g.dpdv, bump_gradient(texels, textures + mn->bump_tex, tc,
-                                                                 mn->bump_height, mn->bump_delta));
+    if (m->bump_tex >= 0)
+        n_out = bump_normal(n_out, g.dpdu, g.dpdv, bump_gradient(texels, textures + m->bump_tex, tc,
+                                                                 m->bump_height, m->bump_delta));
 #endif
 #if TX_NORMAL_MAPS
-    if (mn->normal_tex >= 0) {
-        __global const TextureInfo* nt = textures + mn->normal_tex;
+    if (m->normal_tex >= 0) {
+        __global const TextureInfo* nt = textures + m->normal_tex;
         float3 nm0 = (float3)(1.0f, 0.0f, 0.0f), nm1 = (float3)(0.0f, 1.0f, 0.0f), nm2 = (float3)(0.0f, 0.0f, 1.0f);
-        if (mn->normal_mode & TX_NORMAL_OBJECT) {
+        if (m->normal_mode & TX_NORMAL_OBJECT) {
             __global const ObjectInfo* on = objects + object;
             nm0 = vload3(0, on->nm0); nm1 = vload3(0, on->nm1); nm2 = vload3(0, on->nm2);
         }
-        n_out = normal_map_normal(n_out, g.dpdu, g.dpdv, texture_eval(texels, nt, tc).xyz, mn->normal_mode,
+        n_out = normal_map_normal(n_out, g.dpdu, g.dpdv, texture_eval(texels, nt, tc).xyz, m->normal_mode,
                                   nm0, nm1, nm2);
     }
 #endif
@@ -154,7 +152,6 @@ inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_
     ns = shading_normal_facing(ns, ng, -normalize3(dir));   /* bump.h: no normal facing away */
 #endif
 
-    __global const Material* m = materials + material;
     /* Textures alter the terms of the local illumination (the lecture): kd, the label over
      * it, ks and n. Each role's code is compiled only when a material uses it. */
     float3 kd = vload3(0, m->diffuse), ks = vload3(0, m->specular);

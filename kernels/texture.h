@@ -54,12 +54,6 @@ inline float4 texel(__global const half* texels, __global const TextureInfo* ti,
     return vload_half4(ti->offset + (uint)y * ti->width + (uint)x, texels);
 }
 
-/* The texture's UV transform applied to uv. */
-inline float2 texture_coords(__global const TextureInfo* ti, float2 uv)
-{
-    return uv_transform(uv, vload4(0, ti->m0), vload2(0, ti->m1));
-}
-
 /* The four texels around uv in one level, wrap mode `mode`, and the weights ax, ay
  * of the second column and row (x = u w - 1/2 grows with u, y = (1 - v) h - 1/2
  * falls with v). Coordinates are reduced to a small range before scaling
@@ -120,19 +114,24 @@ inline float texture_clamp_lod(__global const TextureInfo* ti, float lod)
     return lod > 0.0f ? TX_MIN(lod, last) : 0.0f;
 }
 
+/* Bilinear in level la, blended with level lb (the next) by frac; frac = 0 reads la only. */
+inline float4 texture_blend_levels(__global const half* texels, TexLevel la, TexLevel lb, int mode, float2 uv,
+                                   float frac)
+{
+    float4 c = texture_bilinear_level(texels, la, mode, uv);
+    if (frac > 0.0f)
+        c = c * (1.0f - frac) + texture_bilinear_level(texels, lb, mode, uv) * frac;
+    return c;
+}
+
 /* Trilinear MIP mapping: bilinear in levels floor(lod) and floor(lod) + 1, blended
  * by the fraction (Williams 1983). lod <= 0 (magnification) is level 0 bilinear. */
 inline float4 texture_trilinear(__global const half* texels, __global const TextureInfo* ti, float2 uv, float lod)
 {
     lod = texture_clamp_lod(ti, lod);
     int l0 = (int)lod;
-    float f = lod - (float)l0;
-    int mode = (int)ti->wrap;
     TexLevel a = texture_level(ti, l0);
-    float4 c = texture_bilinear_level(texels, a, mode, uv);
-    if (f > 0.0f)
-        c = c * (1.0f - f) + texture_bilinear_level(texels, texture_next_level(a), mode, uv) * f;
-    return c;
+    return texture_blend_levels(texels, a, texture_next_level(a), (int)ti->wrap, uv, lod - (float)l0);
 }
 
 #if TX_FILTER_ANISOTROPIC
@@ -202,11 +201,7 @@ inline float4 texture_anisotropic(__global const half* texels, __global const Te
         float t = ((float)k - 0.5f * (float)(f.n - 1)) * f.spacing;    /* texels from uv */
         float x = 2.0f * t / f.major;
         float w = exp(-2.0f * x * x);
-        float2 p = uv + t * f.axis_uv;
-        float4 c = texture_bilinear_level(texels, la, mode, p);
-        if (frac > 0.0f)
-            c = c * (1.0f - frac) + texture_bilinear_level(texels, lb, mode, p) * frac;
-        sum += w * c;
+        sum += w * texture_blend_levels(texels, la, lb, mode, uv + t * f.axis_uv, frac);
         wsum += w;
     }
     return sum / wsum;

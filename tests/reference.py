@@ -285,3 +285,13 @@ def anisotropic(t, levels, uv, duv_dx, duv_dy, mode):
         wsum += w
     out[good] = acc / wsum[:, None]
     return out
+
+
+def scene_hits(scene, width, height):
+    """(compiled scene, origins, directions, t, b1, b2, triangle) of the float64 closest hits
+    of the pixel-centre camera rays with the scene's compiled triangles (-1: miss)."""
+    cs = compile_scene(scene)
+    p0, p1, p2 = (cs.tri_verts[k].astype(np.float64) for k in ("p0", "p1", "p2"))
+    org, d = camera_rays(scene, width, height)
+    t, b1, b2, tri = intersect(org, d, p0, p1, p2)
+    return cs, org, d, t, b1, b2, tri

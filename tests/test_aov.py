@@ -5,25 +5,16 @@ import pytest
 
 import texray as tx
 from texray import layout
-from texray.compile import compile_scene
-from reference import camera_rays, intersect
+from reference import scene_hits
 from scenes_for_tests import textured_box_scene
 
 W, H = 64, 48
 
 
-def _reference_hits(scene):
-    cs = compile_scene(scene)
-    p0, p1, p2 = (cs.tri_verts[k].astype(np.float64) for k in ("p0", "p1", "p2"))
-    org, d = camera_rays(scene, W, H)
-    t, b1, b2, tri = intersect(org, d, p0, p1, p2)
-    return cs, org, d, t, b1, b2, tri
-
-
 def test_triangle_aovs_match_float64(device):
     scene = textured_box_scene()
     img = tx.render(scene, W, H, spp=1, device=device, aovs=tuple(layout.AOVS))
-    cs, org, d, t, b1, b2, tri = _reference_hits(scene)
+    cs, org, d, t, b1, b2, tri = scene_hits(scene, W, H)
     hit = tri >= 0
     flat = {k: v.reshape(W * H, -1) for k, v in img.aov.items()}
     # Background: NaN geometry, -1 ids.

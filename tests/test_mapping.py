@@ -26,9 +26,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from texray import layout
-from texray.device import KERNEL_DIR
 from texray.errors import SceneError
+from kernel_harness import build_test_program
 from texray.mapping import (PROJECTION_KINDS, WRAP_MODES, Projection, UVTransform,
                             project_numpy)
 
@@ -106,35 +105,8 @@ __kernel void eval_wrap_float(__global const float* u, int n, int mode, __global
 }
 """
 
-_programs = {}
-
-
 def _program(rt):
-    heads = "".join((KERNEL_DIR / h).read_text() for h in ("common.h", "mapping.h", "wrap.h"))
-    key = (rt.context.int_ptr, hash(heads))
-    prg = _programs.get(key)
-    if prg is None:
-        # the headers' hash in the source: pyopencl's binary cache must not serve stale includes
-        src = f"/* {key[1]} */\n" + layout.opencl_declarations() + _KERNELS
-        built = cl.Program(rt.context, src).build(options=["-I", str(KERNEL_DIR)])
-        prg = _programs[key] = _Kernels(built)
-    return prg
-
-
-class _Kernels:
-    """A built program's kernels, each retrieved once (pyopencl warns on repeated retrieval)."""
-
-    def __init__(self, prg):
-        self._prg = prg
-        self._k = {}
-
-    def __getattr__(self, name):
-        if name.startswith("_"):
-            raise AttributeError(name)
-        k = self._k.get(name)
-        if k is None:
-            k = self._k[name] = cl.Kernel(self._prg, name)
-        return k
+    return build_test_program(rt, ("common.h", "mapping.h", "wrap.h"), _KERNELS)
 
 
 def _buf(rt, a):

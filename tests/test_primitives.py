@@ -19,15 +19,17 @@ Every bound the tests assert is stated, with what was measured, in its docstring
 """
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pyopencl as cl
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from texray import layout
-from texray.device import KERNEL_DIR
 
 import prim_reference as ref
+from kernel_harness import build_test_program
 
 _KERNELS = r"""
 #include "common.h"
@@ -123,29 +125,12 @@ OUT = np.dtype([("hit", "<f4"), ("t", "<f4"), ("uv", "<f4", (2,)), ("p", "<f4", 
                 ("dpdu", "<f4", (3,)), ("dpdv", "<f4", (3,)), ("perr", "<f4", (3,)), ("param", "<f4", (2,)),
                 ("pad", "<f4", (3,))])
 _HEADERS = ("common.h", "geom.h", "sphere.h", "cylinder.h", "quad.h")
-_programs = {}
-
-
-class _Kernels:
-    """A built program's kernels, each retrieved once."""
-
-    def __init__(self, prg):
-        self.sphere = prg.trace_sphere
-        self.cylinder = prg.trace_cylinder
-        self.quad = prg.trace_quad
-        self.quad_geom_at = prg.quad_geom_at
 
 
 def _program(rt):
-    heads = "".join((KERNEL_DIR / h).read_text() for h in _HEADERS)
-    key = (rt.context.int_ptr, hash(heads))
-    prg = _programs.get(key)
-    if prg is None:
-        # the headers' hash in the source: pyopencl's binary cache must not serve stale includes
-        src = f"/* {key[1]} */\n" + layout.opencl_declarations() + _KERNELS
-        built = cl.Program(rt.context, src).build(options=["-I", str(KERNEL_DIR)])
-        prg = _programs[key] = _Kernels(built)
-    return prg
+    k = build_test_program(rt, _HEADERS, _KERNELS)
+    return SimpleNamespace(sphere=k.trace_sphere, cylinder=k.trace_cylinder, quad=k.trace_quad,
+                           quad_geom_at=k.quad_geom_at)
 
 
 def _buf(rt, a):

@@ -7,18 +7,14 @@ import trimesh
 
 import texray as tx
 from texray.mapping import UVTransform, project_numpy
-from reference import camera_rays, intersect
+from reference import scene_hits
 from scenes_for_tests import quad
 
 W, H = 64, 48
 
 
 def _hits(scene):
-    from texray.compile import compile_scene
-    cs = compile_scene(scene)
-    p0, p1, p2 = (cs.tri_verts[k].astype(np.float64) for k in ("p0", "p1", "p2"))
-    org, d = camera_rays(scene, W, H)
-    t, b1, b2, tri = intersect(org, d, p0, p1, p2)
+    _, org, d, t, b1, b2, tri = scene_hits(scene, W, H)
     hit = tri >= 0
     with np.errstate(invalid="ignore"):
         p = org + t[:, None] * d

@@ -33,7 +33,7 @@ from scenes_for_tests import quad
 from texray import layout
 from texray import texture as txt
 from texray.compile import compile_scene
-from texray.device import KERNEL_DIR
+from kernel_harness import build_test_program
 
 _KERNELS = r"""
 #include "common.h"
@@ -77,22 +77,15 @@ __kernel void differentials(__constant Camera* cam, uint w, uint h, uint spp, __
 }
 """
 
-_programs = {}
 FILTER_NAMES = ("nearest", "bilinear", "trilinear", "anisotropic")
 # The filters compiled in: each alone (the specialized paths) and all four (the runtime switch).
 VARIANTS = [(1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1), (1, 1, 1, 1)]
 
 
 def _program(rt, variant):
-    heads = "".join((KERNEL_DIR / h).read_text() for h in ("common.h", "geom.h", "wrap.h", "mapping.h",
-                                                           "differentials.h", "texture.h"))
-    key = (rt.context.int_ptr, hash(heads), variant)
-    if key not in _programs:
-        src = f"/* {hash(heads)} */\n" + layout.opencl_declarations() + _KERNELS
-        opts = [f"-DTX_FILTER_{k.upper()}={v}" for k, v in zip(FILTER_NAMES, variant)]
-        prg = cl.Program(rt.context, src).build(options=opts + ["-I", str(KERNEL_DIR)])
-        _programs[key] = {name: cl.Kernel(prg, name) for name in ("lookup", "differentials")}
-    return _programs[key]
+    k = build_test_program(rt, ("common.h", "geom.h", "wrap.h", "mapping.h", "differentials.h", "texture.h"),
+                           _KERNELS, [f"-DTX_FILTER_{n.upper()}={v}" for n, v in zip(FILTER_NAMES, variant)])
+    return {"lookup": k.lookup, "differentials": k.differentials}
 
 
 def _buf(rt, a):

@@ -29,6 +29,7 @@ import platform
 import subprocess
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -65,10 +66,12 @@ def bench_mesh_scene(triangles):
 
 
 def bench_bvh(scene, repeat):
+    """(compiled scene, BVH figures): the scene's compile time and the SAH build of its triangles."""
     from . import bvh
-    from .compile import compile_scene
+    from .compile import compile_scene, triangle_bounds
+    t0 = time.perf_counter()
     cs = compile_scene(scene)
-    from .compile import triangle_bounds
+    compile_s = time.perf_counter() - t0
     lo, hi = triangle_bounds(cs.tri_verts)
     times, tree = [], None
     for _ in range(repeat):
@@ -76,36 +79,46 @@ def bench_bvh(scene, repeat):
         tree = bvh.build(lo, hi)
         times.append(time.perf_counter() - t0)
     return cs, {"triangles": int(len(lo)), "build_s": median_spread(times), "sah_cost": tree.sah_cost,
-                "nodes": int(len(tree.nodes)), "depth": tree.depth}
+                "nodes": int(len(tree.nodes)), "depth": tree.depth, "scene_compile_s": compile_s}
+
+
+@dataclass
+class RayWork:
+    """The rays bench_rays traced and texray's answers, for the peers to trace the same."""
+    compiled: object         # CompiledScene of the bench mesh
+    mesh: object             # its texray.Mesh (positions, faces)
+    org: np.ndarray
+    dirs: np.ndarray
+    hits: object             # texray.trace.Hits of the primary rays
+    shadow_org: np.ndarray
+    shadow_dirs: np.ndarray
+    occluded: np.ndarray
 
 
 def bench_rays(cs, scene, device, size, repeat):
-    """Closest-hit Mrays/s of pixel-centre primary rays and any-hit Mrays/s of shadow rays."""
+    """(figures, RayWork): closest-hit Mrays/s of size^2 pixel-centre primary rays and
+    any-hit Mrays/s of shadow rays from their hits toward the first light."""
+    from .peers import primary_rays, shadow_rays
     from .trace import Tracer
     tracer = Tracer(cs, device)
-    eye, fwd, right, up = scene.camera.basis(1.0)
-    px = (np.arange(size) + 0.5) / size * 2 - 1
-    x, y = np.meshgrid(px, -px)
-    dirs = (fwd + x[..., None] * right + y[..., None] * up).reshape(-1, 3).astype(np.float32)
-    org = np.broadcast_to(eye.astype(np.float32), dirs.shape)
+    org, dirs = primary_rays(scene.camera, size)
     primary, shadow, hits = [], [], None
     for i in range(repeat + 1):
         hits = tracer.closest(org, dirs)
         if i:
             primary.append(len(dirs) / hits.seconds * 1e-6)
     hit = hits.prim >= 0
-    p = org[hit] + hits.t[hit, None] * dirs[hit]
-    n = p / np.linalg.norm(p, axis=1, keepdims=True)          # the bench mesh is star-shaped about 0
-    so = (p + 1e-4 * n).astype(np.float32)
-    sd = (np.asarray(scene.lights[0].position, np.float32) - so).astype(np.float32)
+    so, sd = shadow_rays(org, dirs, hits.t, hit, scene.lights[0].position)
     for i in range(repeat + 1):
         occ, secs = tracer.occluded(so, sd, 0.0, 1.0)
         if i:
             shadow.append(len(so) / secs * 1e-6)
-    return {"rays": int(len(dirs)), "hit_fraction": float(hit.mean()),
-            "primary_mrays_s": median_spread(primary),
-            "shadow_rays": int(len(so)), "shadow_occluded_fraction": float(occ.mean()),
-            "shadow_mrays_s": median_spread(shadow)}
+    figures = {"device": tracer.rt.device.name.strip(), "triangles": int(len(cs.tri_verts)),
+               "rays": int(len(dirs)), "hit_fraction": float(hit.mean()),
+               "primary_mrays_s": median_spread(primary),
+               "shadow_rays": int(len(so)), "shadow_occluded_fraction": float(occ.mean()),
+               "shadow_mrays_s": median_spread(shadow)}
+    return figures, RayWork(cs, scene.objects[0], org, dirs, hits, so, sd, occ)
 
 
 def _csv_ints(text, what):
@@ -206,8 +219,9 @@ def main(argv=None):
     for dev in chosen:
         dname = select_device(dev).name.strip()
         r = results["devices"][dname] = {"scenes": {}, "builds": {}, "sweeps": {}}
+        work = None
         if args.rays:
-            r["rays"] = bench_rays(cs_mesh, mesh_scene, dev, args.rays, args.repeat)
+            r["rays"], work = bench_rays(cs_mesh, mesh_scene, dev, args.rays, args.repeat)
         for name, path in paths.items():
             sc, cs = scene_of(name, path)
             settings = getattr(sc, "render_settings", {})
@@ -234,7 +248,9 @@ def main(argv=None):
         if args.peers:
             from .bench_peers import bench_peers
             peer_scenes = list(suite_paths(["globe", "grazing_quad", "brick_wall", "textured_meshes"]).values())
-            r["peers"] = bench_peers(dev, args.repeat, args.triangles, args.rays or 1024, peer_scenes)
+            measured = (r["rays"], work, results["bvh"]["scene_compile_s"]) if work is not None else None
+            r["peers"] = bench_peers(dev, args.repeat, args.triangles, args.rays or 1024, peer_scenes,
+                                     measured=measured)
         print_device(dname, r, out)
     Path(args.json).write_text(json.dumps(results, indent=1, default=str))
     out.write(f"\nwrote {args.json}\n")

@@ -14,52 +14,37 @@ from __future__ import annotations
 
 import io
 import os
-import statistics
 import time
 from pathlib import Path
 
 import texray as tx
-from texray import peers, procedural
+from texray import peers
+from texray.bench_suite import median_spread
 from texray.compile import compile_scene
-from texray.trace import Tracer
-
-
-def _ms(values):
-    return {"median": statistics.median(values), "min": min(values), "max": max(values), "n": len(values)}
 
 
 def cell(v, fmt=".2f", width=22):
     return f"{v['median']:{fmt}} ({v['min']:{fmt}}-{v['max']:{fmt}})".rjust(width)
 
 
-def rays(device, triangles, size, repeat, threads_list):
-    m = procedural.bench_mesh(triangles)
-    scene = tx.Scene(camera=tx.Camera(eye=(0.0, 0.4, 3.2), look_at=(0, 0, 0), fov_y=40),   # = texray bench
-                     lights=[tx.PointLight((3.0, 4.0, 5.0), (40, 40, 40))])
-    scene.add(tx.Mesh(m.positions, m.faces, name=f"bench_mesh({triangles})"))
-    t0 = time.perf_counter()
-    cs = compile_scene(scene)
-    build = time.perf_counter() - t0
-    tracer = Tracer(cs, device)
-    org, dirs = peers.primary_rays(scene.camera, size)
-    prim, hits = [], None
-    for i in range(repeat + 1):
-        hits = tracer.closest(org, dirs)
-        if i:
-            prim.append(len(dirs) / hits.seconds * 1e-6)
-    face = peers.texray_face_ids(cs, hits)
-    so, sd = peers.shadow_rays(org, dirs, hits.t, face >= 0, scene.lights[0].position)
-    shadow, occ = [], None
-    for i in range(repeat + 1):
-        occ, secs = tracer.occluded(so, sd, 0.0, 1.0)
-        if i:
-            shadow.append(len(so) / secs * 1e-6)
-    ours = {"device": tracer.rt.device.name.strip(), "triangles": int(len(m.faces)), "rays": int(len(dirs)),
-            "scene_compile_s": build, "primary_mrays_s": _ms(prim), "shadow_rays": int(len(so)),
-            "shadow_mrays_s": _ms(shadow)}
-    theirs = [peers.embree_rays(m.positions, m.faces, org, dirs, so, sd, repeat=repeat, threads=t,
-                                texray_hits=(hits.t, face), texray_occluded=occ) for t in threads_list]
-    return ours, theirs
+def rays(device, triangles, size, repeat, threads_list, measured=None):
+    """(texray's figures, Embree's per thread count) on the same mesh and rays. ``measured``:
+    (figures, texray.bench.RayWork, scene compile seconds) of a bench run that traced them
+    already; else the bench mesh is built and traced here as ``texray bench`` does."""
+    from .bench import bench_mesh_scene, bench_rays
+    if measured is None:
+        scene = bench_mesh_scene(triangles)
+        t0 = time.perf_counter()
+        cs = compile_scene(scene)
+        compile_s = time.perf_counter() - t0
+        figures, work = bench_rays(cs, scene, device, size, repeat)
+    else:
+        figures, work, compile_s = measured
+    face = peers.texray_face_ids(work.compiled, work.hits)
+    theirs = [peers.embree_rays(work.mesh.positions, work.mesh.faces, work.org, work.dirs, work.shadow_org,
+                                work.shadow_dirs, repeat=repeat, threads=t, texray_hits=(work.hits.t, face),
+                                texray_occluded=work.occluded) for t in threads_list]
+    return dict(figures, scene_compile_s=compile_s), theirs
 
 
 def frames(path, device, repeat, width=None, height=None, spp=None):
@@ -69,8 +54,8 @@ def frames(path, device, repeat, width=None, height=None, spp=None):
     cmp, notes = peers.comparable_scene(scene)
     first = tx.render(cmp, w, h, s, device=device)
     runs = [tx.render(cmp, w, h, s, device=device) for _ in range(repeat)]
-    ours = {"render_s": _ms([r.stats["render_s"] for r in runs]),
-            "prep_s": _ms([r.stats["total_s"] - r.stats["render_s"] for r in runs]),
+    ours = {"render_s": median_spread([r.stats["render_s"] for r in runs]),
+            "prep_s": median_spread([r.stats["total_s"] - r.stats["render_s"] for r in runs]),
             "first_total_s": first.stats["total_s"]}
     rgb, st = peers.mitsuba_render(cmp, w, h, s, repeat=repeat)
     diff = peers.compare_images(runs[-1].rgb, rgb)
@@ -78,8 +63,9 @@ def frames(path, device, repeat, width=None, height=None, spp=None):
             "diff": diff, "notes": notes + st["notes"]}
 
 
-def bench_peers(device, repeat=5, triangles=1_000_000, size=1024, scenes=(), threads=None):
-    """Run the peers; returns the results dict with ``lines`` (the printed tables)."""
+def bench_peers(device, repeat=5, triangles=1_000_000, size=1024, scenes=(), threads=None, measured=None):
+    """Run the peers; returns the results dict with ``lines`` (the printed tables). ``measured``:
+    see :func:`rays`."""
     threads = threads or sorted({1, os.cpu_count() or 1})
     out = io.StringIO()
 
@@ -89,7 +75,7 @@ def bench_peers(device, repeat=5, triangles=1_000_000, size=1024, scenes=(), thr
         if v["ok"] else f"{k} missing" for k, v in av.items()) + "\n")
     result = {"available": av}
     if av["embree"]["ok"]:
-        ours, theirs = rays(device, triangles, size, repeat, threads)
+        ours, theirs = rays(device, triangles, size, repeat, threads, measured)
         result["rays"] = {"texray": ours, "embree": theirs}
         out.write(f"\nRays: {ours['triangles']} triangles, {ours['rays']} primary + {ours['shadow_rays']} shadow "
                   f"rays; texray on {ours['device']} (kernel time), Embree wall clock; median (min-max) Mrays/s\n")

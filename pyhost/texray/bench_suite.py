@@ -9,7 +9,6 @@ the median over ``repeat`` runs after one warm-up run, with min and max.
 from __future__ import annotations
 
 import statistics
-import time
 from pathlib import Path
 
 # The suite, in the order it runs. Each is scenes/bench/<name>.toml.
@@ -101,11 +100,8 @@ def program_variants(paths):
     from .scene import Scene
     seen = {}
     for p in paths:
-        t0 = time.perf_counter()
-        cs = compile_scene(Scene.load(p))
-        key = tuple(sorted(compile_options(cs.features).items()))
+        key = tuple(sorted(compile_options(compile_scene(Scene.load(p)).features).items()))
         seen.setdefault(key, []).append(str(p))
-        del cs, t0
     return [{"defines": dict(k), "scenes": v} for k, v in seen.items()]
 
 

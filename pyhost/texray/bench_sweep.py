@@ -14,7 +14,8 @@ steps) add series here; the table, JSON, report and plot take them as they are.
 """
 from __future__ import annotations
 
-import inspect
+import copy
+import dataclasses
 
 import numpy as np
 
@@ -39,36 +40,37 @@ def error_metrics(img, ref):
             "bad_pixels": float(np.mean(np.max(np.abs(d), axis=2) > 0.02))}
 
 
-def _supports(name):
-    from .render import render
-    return name in inspect.signature(render).parameters
-
-
 def _bumps(scene):
-    return [o.material.bump for o in scene.objects if getattr(o.material, "bump", None) is not None]
+    return [o.material.bump for o in scene.objects if o.material.bump is not None]
+
+
+def _with_role(scene, role, make):
+    """A copy of ``scene`` in which every material's ``role`` (bump, displacement) that is
+    set is replaced by ``make(old)`` (one new material per old one); the scene itself is
+    not changed."""
+    out = copy.copy(scene)
+    out.objects = []
+    cache = {}
+    for o in scene.objects:
+        old = getattr(o.material, role)
+        if old is not None:
+            if id(o.material) not in cache:
+                cache[id(o.material)] = dataclasses.replace(o.material, **{role: make(old)})
+            o = copy.copy(o)
+            o.material = cache[id(o.material)]
+        out.objects.append(o)
+    return out
 
 
 def with_bump_delta(scene, texels):
     """A copy of ``scene`` whose bump maps all use the step ``texels`` (texels of each height
     texture, or "analytic"); the scene itself is not changed."""
-    import copy
-    import dataclasses
     from .bump import Bump
-    out = copy.copy(scene)
-    out.objects = []
-    cache = {}
-    for o in scene.objects:
-        b = getattr(o.material, "bump", None)
-        if b is not None:
-            if id(o.material) not in cache:
-                h, w = b.texture.shape
-                delta = "analytic" if texels == "analytic" else min(0.5, texels / max(h, w))
-                nb = Bump(b.texture, height=b.height, delta=delta)
-                cache[id(o.material)] = dataclasses.replace(o.material, bump=nb)
-            o = copy.copy(o)
-            o.material = cache[id(o.material)]
-        out.objects.append(o)
-    return out
+
+    def make(b):
+        delta = "analytic" if texels == "analytic" else min(0.5, texels / max(b.texture.shape))
+        return Bump(b.texture, height=b.height, delta=delta)
+    return _with_role(scene, "bump", make)
 
 
 def series_for(scene, compiled, spp_values=SPP_VALUES, filter_spp=FILTER_SPP):
@@ -78,7 +80,7 @@ def series_for(scene, compiled, spp_values=SPP_VALUES, filter_spp=FILTER_SPP):
     if displaced(scene):
         return displacement_series(scene)
     out = [("spp", [(f"{s} spp", {"spp": s}) for s in spp_values])]
-    if compiled.textures is not None and _supports("texture_filter"):
+    if compiled.textures is not None:
         for f in FILTERS:
             out.append((f"filter={f}", [(f"{f} {s} spp", {"spp": s, "texture_filter": f}) for s in filter_spp]))
     if _bumps(scene):
@@ -96,7 +98,7 @@ def sweep_scene(scene, compiled, device, width, height, repeat, ref_spp=256, spp
     from .render import render
     if displaced(scene):
         return sweep_displacement(scene, device, width, height, repeat)
-    ref_kw = {"texture_filter": "bilinear"} if compiled.textures is not None and _supports("texture_filter") else {}
+    ref_kw = {"texture_filter": "bilinear"} if compiled.textures is not None else {}
     ref_scene = with_bump_delta(scene, "analytic") if _bumps(scene) else scene
     ref = render(ref_scene, width, height, ref_spp, device=device, seed=12345, **ref_kw)
     if _bumps(scene):
@@ -169,30 +171,16 @@ DISP_SCENES = ("terrain", "displaced_wall", "planet")
 
 def displaced(scene):
     """True when some object of ``scene`` has a displacement map."""
-    return any(getattr(o.material, "displacement", None) is not None for o in scene.objects)
+    return any(o.material.displacement is not None for o in scene.objects)
 
 
 def with_displacement(scene, method, **knobs):
     """A copy of ``scene`` whose displacement maps all use ``method`` and ``knobs`` (steps,
     refine, adaptive, resolution), keeping each map's texture, scale and offset; the
     scene itself is not changed."""
-    import copy
-    import dataclasses
-
     from .displace import Displacement
-    out = copy.copy(scene)
-    out.objects = []
-    cache = {}
-    for o in scene.objects:
-        d = getattr(o.material, "displacement", None)
-        if d is not None:
-            if id(o.material) not in cache:
-                nd = Displacement(d.texture, scale=d.scale, offset=d.offset, method=method, **knobs)
-                cache[id(o.material)] = dataclasses.replace(o.material, displacement=nd)
-            o = copy.copy(o)
-            o.material = cache[id(o.material)]
-        out.objects.append(o)
-    return out
+    return _with_role(scene, "displacement", lambda d: Displacement(d.texture, scale=d.scale, offset=d.offset,
+                                                                    method=method, **knobs))
 
 
 def _maxmip_applies(scene):

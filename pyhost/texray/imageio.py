@@ -38,31 +38,48 @@ def read_image(path, field="texture"):
     return pixels, colorspace
 
 
-def write_image(path, rgb):
-    """Write linear float RGB (H, W, 3): PNG/JPEG/TIFF as 8-bit sRGB (clamped), EXR/HDR as linear float."""
-    import OpenImageIO as oiio
-    path = Path(path)
-    rgb = np.ascontiguousarray(rgb, dtype=np.float32)
-    if rgb.ndim == 2:
-        rgb = rgb[:, :, None]
-    h, w, c = rgb.shape
-    ext = path.suffix.lower()
+_SRGB_FORMATS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".tga")
+
+
+def _output_format(path):
+    """The pixel format a render is written in: 8-bit sRGB, half (EXR) or float (HDR)."""
+    ext = Path(path).suffix.lower()
     if ext in _LINEAR_FORMATS:
-        data, fmt = rgb, "half" if ext == ".exr" else "float"
-    elif ext in (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".tga"):
-        data, fmt = np.round(linear_to_srgb(rgb) * 255.0).astype(np.uint8), "uint8"
-    else:
-        raise SceneError(f"output: unsupported image extension {ext!r} in {path} "
-                         "(use .png, .jpg, .tif, .exr or .hdr)")
+        return "half" if ext == ".exr" else "float"
+    if ext in _SRGB_FORMATS:
+        return "uint8"
+    raise SceneError(f"output: unsupported image extension {ext!r} in {path} (use .png, .jpg, .tif, .exr or .hdr)")
+
+
+def _encode(rgb, fmt):
+    """Linear float RGB in the output format: sRGB-encoded 8-bit (clamped) or as it is."""
+    rgb = np.ascontiguousarray(rgb, dtype=np.float32)
+    return np.round(linear_to_srgb(rgb) * 255.0).astype(np.uint8) if fmt == "uint8" else rgb
+
+
+def _open_output(path, width, height, channels, fmt):
+    import OpenImageIO as oiio
     out = oiio.ImageOutput.create(str(path))
     if out is None:
         raise SceneError(f"output: cannot create {path}: {oiio.geterror()}")
-    spec = oiio.ImageSpec(w, h, c, fmt)
-    if ext not in _LINEAR_FORMATS:
+    spec = oiio.ImageSpec(width, height, channels, fmt)
+    if fmt == "uint8":
         spec.attribute("oiio:ColorSpace", "sRGB")
     if not out.open(str(path), spec):
         raise SceneError(f"output: cannot open {path} for writing: {out.geterror()}")
-    ok = out.write_image(data)
+    return out
+
+
+def write_image(path, rgb):
+    """Write linear float RGB (H, W, 3): PNG/JPEG/TIFF as 8-bit sRGB (clamped), EXR/HDR as linear float."""
+    path = Path(path)
+    fmt = _output_format(path)
+    rgb = np.asarray(rgb, dtype=np.float32)
+    if rgb.ndim == 2:
+        rgb = rgb[:, :, None]
+    h, w, c = rgb.shape
+    out = _open_output(path, w, h, c, fmt)
+    ok = out.write_image(_encode(rgb, fmt))
     out.close()
     if not ok:
         raise SceneError(f"output: writing {path} failed: {out.geterror()}")
@@ -98,35 +115,19 @@ class ScanlineWriter:
     memory can be saved as it is rendered. Same encodings as :func:`write_image`."""
 
     def __init__(self, path, width, height, channels=3):
-        import OpenImageIO as oiio
         self.path = Path(path)
-        ext = self.path.suffix.lower()
-        if ext in _LINEAR_FORMATS:
-            self.fmt = "half" if ext == ".exr" else "float"
-        elif ext in (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".tga"):
-            self.fmt = "uint8"
-        else:
-            raise SceneError(f"output: unsupported image extension {ext!r} in {self.path} "
-                             "(use .png, .jpg, .tif, .exr or .hdr)")
-        self.out = oiio.ImageOutput.create(str(self.path))
-        if self.out is None:
-            raise SceneError(f"output: cannot create {self.path}: {oiio.geterror()}")
-        spec = oiio.ImageSpec(width, height, channels, self.fmt)
-        if self.fmt == "uint8":
-            spec.attribute("oiio:ColorSpace", "sRGB")
-        if not self.out.open(str(self.path), spec):
-            raise SceneError(f"output: cannot open {self.path} for writing: {self.out.geterror()}")
+        self.fmt = _output_format(self.path)
+        self.out = _open_output(self.path, width, height, channels, self.fmt)
         self.next_row = 0
 
     def write(self, y0, rgb_rows):
         """Rows y0 .. y0 + len(rgb_rows) - 1 of linear float RGB; bands must come in order."""
         if y0 != self.next_row:
             raise ValueError(f"ScanlineWriter: expected row {self.next_row}, got {y0}")
-        rgb = np.ascontiguousarray(rgb_rows, dtype=np.float32)
-        data = rgb if self.fmt != "uint8" else np.round(linear_to_srgb(rgb) * 255.0).astype(np.uint8)
-        if not self.out.write_scanlines(y0, y0 + len(rgb), 0, data):
+        data = _encode(rgb_rows, self.fmt)
+        if not self.out.write_scanlines(y0, y0 + len(data), 0, data):
             raise SceneError(f"output: writing rows {y0}.. of {self.path} failed: {self.out.geterror()}")
-        self.next_row = y0 + len(rgb)
+        self.next_row = y0 + len(data)
 
     def close(self):
         self.out.close()

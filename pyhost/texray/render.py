@@ -123,6 +123,8 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     for a in aovs:
         if a not in layout.AOVS:
             raise SceneError(f"render: aovs: unknown AOV {a!r} (known: {', '.join(layout.AOVS)})")
+    if pipeline not in PIPELINES:
+        raise SceneError(f"render: pipeline: expected one of {', '.join(PIPELINES)}, got {pipeline!r}")
     t_start = time.perf_counter()
     if compiled is None:
         cs = compile_scene(scene, shadows=shadows, texture_filter=texture_filter)
@@ -149,8 +151,6 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     local = rt.local_size(local_size)
     t_built = time.perf_counter()
 
-    if pipeline not in PIPELINES:
-        raise SceneError(f"render: pipeline: expected one of {', '.join(PIPELINES)}, got {pipeline!r}")
     fused = pipeline == "fused"
     nl = max(len(cs.lights), 1)
     # per pixel of a tile: the accumulator; the staged pipeline (and the AOV pass) add the records
