@@ -2,7 +2,11 @@
 
 Every device test runs on PoCL's CPU device (always present with
 pyopencl[pocl]) and on each GPU found; set TEXRAY_TEST_DEVICES=all|cpu|gpu
-to choose.
+to choose. The portability tests (struct layout, strict 1.2 builds, images
+agreeing across devices) also run on every other OpenCL device found, such as
+Oclgrind, the OpenCL 1.2 simulator that `.ci/run` installs where it can: a
+second, independent compiler and runtime, whose memory checker reports any
+out-of-bounds access of the kernels.
 """
 import os
 import zlib
@@ -13,6 +17,11 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+
+# Where Oclgrind (if it is one of the devices) writes its diagnostics: read when a
+# context is created, so set before any test creates one.
+OCLGRIND_LOG = Path(os.environ.setdefault(
+    "OCLGRIND_LOG", str(Path(os.environ.get("TMPDIR", "/tmp")) / f"texray-oclgrind-{os.getpid()}.log")))
 try:
     import texray  # noqa: F401  (installed)
 except ImportError:                      # running from a source tree
@@ -20,18 +29,20 @@ except ImportError:                      # running from a source tree
     import texray  # noqa: F401
 
 
-def _test_devices():
+def _test_devices(types):
     from texray.device import devices
     want = os.environ.get("TEXRAY_TEST_DEVICES", "all")
     out = []
     for d in devices():
-        if want in ("all", d.type) and d.type in ("cpu", "gpu"):
+        if want in ("all", d.type) and d.type in types:
             if not any(o.type == d.type and o.name == d.name for o in out):
                 out.append(d)
     return out
 
 
-DEVICES = _test_devices()
+DEVICES = _test_devices(("cpu", "gpu"))
+# Devices of the portability tests: the above and any other OpenCL device.
+PORTABILITY_DEVICES = _test_devices(("cpu", "gpu", "accelerator", "other"))
 
 
 @pytest.fixture(params=[d.index for d in DEVICES], ids=[f"{d.type}:{d.name[:24]}" for d in DEVICES])
@@ -44,6 +55,14 @@ def device(request):
 def rt(device):
     from texray.device import runtime
     return runtime(device)
+
+
+@pytest.fixture(params=[d.index for d in PORTABILITY_DEVICES],
+                ids=[f"{d.type}:{d.name[:24]}" for d in PORTABILITY_DEVICES])
+def any_rt(request):
+    """A runtime on each device of PORTABILITY_DEVICES."""
+    from texray.device import runtime
+    return runtime(request.param)
 
 
 @pytest.fixture

@@ -12,9 +12,9 @@ from texray.features import Features, compile_options
 
 
 @pytest.mark.parametrize("which", ["generic", "lean"])
-def test_kernels_build_as_opencl_1_2_without_warnings(rt, which):
+def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
     f = Features.generic() if which == "generic" else dataclasses.replace(
         Features(), shadows=False, max_lights=1, stack_size=32)
-    prg = rt.program(compile_options(f), extra_options=("-Werror",))
+    prg = any_rt.program(compile_options(f), extra_options=("-Werror",))
     names = set(prg.get_info(cl.program_info.KERNEL_NAMES).split(";"))
     assert {"raygen", "intersect", "surface", "shadow", "shade", "render_fused", "occluded"} <= names

@@ -9,29 +9,47 @@ texel conversion (exact both ways). A silhouette or shadow-boundary pixel can
 flip when a hit lands within rounding of an edge, so: at most 0.1% of pixels
 may differ by more than 0.02, and over the other pixels the mean absolute
 difference is below 1e-4.
-With a single device the comparison has nothing to compare and is skipped
-(the GPU run is in the README's portability notes)."""
+Every device other than the reference CPU is compared: GPUs, and other OpenCL
+implementations such as Oclgrind (the OpenCL 1.2 simulator `.ci/run` installs
+where it can), whose own compiler and memory checker make it a second opinion
+on the kernels' portability: any diagnostic it logs while rendering (an
+out-of-bounds or misaligned access) fails the test.
+With a single device the comparison has nothing to compare and is skipped."""
 import numpy as np
 import pytest
 
 import texray as tx
 from texray.render import render
 
-from conftest import DEVICES
+from conftest import OCLGRIND_LOG, PORTABILITY_DEVICES
 
-SCENES = ["bench/globe.toml", "bench/grazing_quad.toml", "bench/mixed.toml", "showcase.toml"]
+# Textures under every filter, bump and normal maps, displacement, the texture
+# roles, every primitive kind and mapping.
+SCENES = ["bench/globe.toml", "bench/grazing_quad.toml", "bench/mixed.toml", "bench/brick_wall.toml",
+          "bench/displaced_wall.toml", "bench/planet.toml", "bump/normal_mesh.toml", "roles/roles.toml",
+          "showcase.toml"]
 
 
-@pytest.mark.skipif(len(DEVICES) < 2, reason="needs two OpenCL devices (a CPU and a GPU) to compare")
+def _oclgrind_log_size():
+    return OCLGRIND_LOG.stat().st_size if OCLGRIND_LOG.exists() else 0
+
+
+@pytest.mark.skipif(len(PORTABILITY_DEVICES) < 2 or not any(d.type == "cpu" for d in PORTABILITY_DEVICES),
+                    reason="needs a CPU and another OpenCL device to compare")
 @pytest.mark.parametrize("path", SCENES)
 def test_every_device_renders_the_cpu_image(scenes_dir, path):
     scene = tx.Scene.load(scenes_dir / path)
-    cpu = next(d for d in DEVICES if d.type == "cpu")
-    ref = render(scene, 96, 72, 4, device=cpu.index, seed=1, aovs=("shading_normal", "uv"))
-    for d in DEVICES:
+    cpu = next(d for d in PORTABILITY_DEVICES if d.type == "cpu")
+    ref = render(scene, 64, 48, 4, device=cpu.index, seed=1, aovs=("shading_normal", "uv"))
+    for d in PORTABILITY_DEVICES:
         if d.index == cpu.index:
             continue
-        img = render(scene, 96, 72, 4, device=d.index, seed=1, aovs=("shading_normal", "uv"))
+        logged = _oclgrind_log_size()
+        img = render(scene, 64, 48, 4, device=d.index, seed=1, aovs=("shading_normal", "uv"))
+        if _oclgrind_log_size() != logged:
+            with open(OCLGRIND_LOG) as f:
+                f.seek(logged)
+                pytest.fail(f"{d.name} logged while rendering {path}:\n{f.read()[:4000]}")
         diff = np.abs(img.rgb - ref.rgb).max(axis=2)
         assert np.mean(diff > 0.02) <= 1e-3, f"{d.name}: {np.mean(diff > 0.02):.4%} pixels differ by > 0.02"
         calm = diff <= 0.02

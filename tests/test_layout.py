@@ -16,16 +16,16 @@ def _probe_source():
     return "\n".join(lines)
 
 
-def test_struct_sizes_and_offsets_match_on_device(rt):
+def test_struct_sizes_and_offsets_match_on_device(any_rt):
     expected = []
     for name, dt in layout.STRUCTS.items():
         expected.append((f"sizeof({name})", dt.itemsize))
         expected += [(f"{name}.{f}", dt.fields[f][1]) for f in dt.names]
-    prg = cl.Program(rt.context, _probe_source()).build()
+    prg = cl.Program(any_rt.context, _probe_source()).build()
     out = np.zeros(len(expected), np.uint32)
-    buf = cl.Buffer(rt.context, cl.mem_flags.WRITE_ONLY, max(out.nbytes, 4096))
-    prg.probe(rt.queue, (1,), None, buf)
-    cl.enqueue_copy(rt.queue, out, buf)
+    buf = cl.Buffer(any_rt.context, cl.mem_flags.WRITE_ONLY, max(out.nbytes, 4096))
+    prg.probe(any_rt.queue, (1,), None, buf)
+    cl.enqueue_copy(any_rt.queue, out, buf)
     mismatches = [(what, want, int(got)) for (what, want), got in zip(expected, out) if want != got]
     assert not mismatches, f"host/device layout differs (field, host, device): {mismatches}"
 

@@ -73,13 +73,12 @@ class DeviceInfo:
 
 
 def _type_name(t):
-    if t & cl.device_type.GPU:
-        return "gpu"
-    if t & cl.device_type.CPU:
-        return "cpu"
-    if t & cl.device_type.ACCELERATOR:
-        return "accelerator"
-    return "other"
+    """The device's one type. A device reporting several (Oclgrind, the OpenCL
+    simulator, reports CL_DEVICE_TYPE_ALL) is "other": it must not be taken for
+    the first GPU by the default selection."""
+    kinds = [name for bit, name in ((cl.device_type.GPU, "gpu"), (cl.device_type.CPU, "cpu"),
+                                    (cl.device_type.ACCELERATOR, "accelerator")) if t & bit]
+    return kinds[0] if len(kinds) == 1 else "other"
 
 
 @lru_cache(maxsize=1)
@@ -114,9 +113,9 @@ def select_device(device=None) -> cl.Device:
     if device is None:
         if os.environ.get("PYOPENCL_CTX"):
             return cl.create_some_context(interactive=False).devices[0]
-        for want in (cl.device_type.GPU, cl.device_type.CPU):
+        for want in ("gpu", "cpu"):
             for d in devs:
-                if d.type & want:
+                if _type_name(d.type) == want:
                     return d
         return devs[0]
     if isinstance(device, bool) or not isinstance(device, (int, str)):
@@ -230,7 +229,7 @@ def _device_kind(dev) -> str:
     if "advanced micro devices" in vendor or "amd" in vendor:
         return "amd"
     if "intel" in vendor:
-        return "intel-gpu" if dev.type & cl.device_type.GPU else "intel-cpu"
+        return "intel-gpu" if _type_name(dev.type) == "gpu" else "intel-cpu"
     return "other"
 
 
