@@ -1,10 +1,14 @@
 #line 2 "bvh.h"
-/* BVH traversal: closest hit ordered by child distance, and any hit.
+/* BVH traversal of the 4-wide tree: closest hit ordered by child distance,
+ * and any hit.
  *
- * Node layout (texray.layout.BVH_NODE) read as two float4: (bmin, first) and
- * (bmax, count_kind). Interior nodes have count_kind == 0 and their children
- * at first and first + 1; leaves hold count_kind & LEAF_COUNT_MASK triangles
- * from `first` in the leaf-ordered triangle array. */
+ * Node layout (texray.layout.BVH4_NODE, built by texray.wide) read as eight
+ * float4: lo_x, hi_x, lo_y, hi_y, lo_z, hi_z of the four children, then their
+ * child indices and count_kind as uint4. A lane with count_kind == 0 is an
+ * interior child (wide node `child`); otherwise a leaf of
+ * count_kind & LEAF_COUNT_MASK primitives of kind count_kind >> LEAF_COUNT_BITS
+ * from `child` in that kind's leaf-ordered array. The four slab tests are
+ * float4 arithmetic: SIMD on a CPU driver, one 128-byte read on a GPU. */
 #ifndef TEXRAY_BVH_H
 #define TEXRAY_BVH_H
 
@@ -21,9 +25,12 @@
 
 /* Slab test for a ray with a zero direction component: such an axis bounds
  * nothing while the origin lies in [lo, hi] (boundaries included) and
- * excludes everything otherwise. The fast test cannot say so: the zero is
- * replaced by safe_inverse's huge finite value, and (lo - org) * inv is 0
- * rather than -inf when the origin lies exactly on a box face. */
+ * excludes everything otherwise. The fast test (box4_entry) cannot say so:
+ * the zero is replaced by safe_inverse's huge finite value, and
+ * (lo - org) * inv is 0 rather than -inf when the origin lies exactly on a
+ * box face. The far distance is scaled by 1 + 2 gamma(3), which makes the
+ * test conservative under float rounding (Ize 2013, "Robust BVH Ray
+ * Traversal"). */
 inline float box_entry_parallel(float4 lo, float4 hi, float3 org, float3 inv_d, float tmin, float tmax)
 {
     float tn = tmin, tf = tmax;
@@ -41,30 +48,148 @@ inline float box_entry_parallel(float4 lo, float4 hi, float3 org, float3 inv_d, 
     return tn <= tf ? tn : INFINITY;
 }
 
-/* Slab test. The far distance is scaled by 1 + 2 gamma(3), which makes the
- * test conservative under float rounding (Ize 2013, "Robust BVH Ray
- * Traversal"); inv_d comes from safe_inverse so no NaN can arise from finite
- * bounds. `parallel` (the ray has a zero direction component) sends misses to
- * the exact test above, so the common case pays one branch. Returns the entry
- * distance, or INFINITY for a miss. */
-inline float box_entry(float4 lo, float4 hi, float3 org, float3 inv_d, float tmin, float tmax, int parallel)
-{
-    float tx0 = (lo.x - org.x) * inv_d.x, tx1 = (hi.x - org.x) * inv_d.x;
-    float ty0 = (lo.y - org.y) * inv_d.y, ty1 = (hi.y - org.y) * inv_d.y;
-    float tz0 = (lo.z - org.z) * inv_d.z, tz1 = (hi.z - org.z) * inv_d.z;
-    float nx = TX_MIN(tx0, tx1), fx = TX_MAX(tx0, tx1);
-    float ny = TX_MIN(ty0, ty1), fy = TX_MAX(ty0, ty1);
-    float nz = TX_MIN(tz0, tz1), fz = TX_MAX(tz0, tz1);
-    float tn = TX_MAX(TX_MAX(nx, ny), TX_MAX(nz, tmin));
-    float tf = TX_MIN(TX_MIN(fx, fy), fz) * (1.0f + 2.0f * gamma_n(3.0f));
-    tf = TX_MIN(tf, tmax);
-    if (tn <= tf) return tn;
-    return parallel ? box_entry_parallel(lo, hi, org, inv_d, tmin, tmax) : INFINITY;
-}
-
 typedef struct { float t, b1, b2; uint prim; } HitRec;
 
-/* Closest hit of the ray (org, dir) with t in (tmin, tmax). prim = TX_MISS on a miss. */
+/* Entry distances of the ray into the four child boxes of a wide node, INFINITY
+ * for a miss. The near and far planes are chosen per axis by the direction's
+ * sign (neg), so the empty box (lo = +inf, hi = -inf) of an unused lane gives
+ * near = +inf and always misses; the far distance is scaled by 1 + 2 gamma(3)
+ * (Ize 2013). inv_d comes from safe_inverse, so no NaN arises from finite
+ * bounds. A ray with a zero direction component (par) re-tests its missed
+ * lanes exactly, so the common case pays one branch. */
+inline float4 box4_entry(__global const float4* nd, float3 org, float3 inv_d, int nx, int ny, int nz,
+                         float tmin, float tmax, int par)
+{
+    float4 lox = nd[0], hix = nd[1], loy = nd[2], hiy = nd[3], loz = nd[4], hiz = nd[5];
+    float4 tnx = ((nx ? hix : lox) - org.x) * inv_d.x, tfx = ((nx ? lox : hix) - org.x) * inv_d.x;
+    float4 tny = ((ny ? hiy : loy) - org.y) * inv_d.y, tfy = ((ny ? loy : hiy) - org.y) * inv_d.y;
+    float4 tnz = ((nz ? hiz : loz) - org.z) * inv_d.z, tfz = ((nz ? loz : hiz) - org.z) * inv_d.z;
+    float4 tn = TX_MAX(TX_MAX(tnx, tny), TX_MAX(tnz, (float4)(tmin)));
+    float4 tf = TX_MIN(TX_MIN(tfx, tfy), tfz) * (1.0f + 2.0f * gamma_n(3.0f));
+    tf = TX_MIN(tf, (float4)(tmax));
+    float4 t = tn <= tf ? tn : (float4)(INFINITY);
+    if (par) {
+        float l[4] = { t.x, t.y, t.z, t.w };
+        float ax[4] = { lox.x, lox.y, lox.z, lox.w }, ay[4] = { loy.x, loy.y, loy.z, loy.w };
+        float az[4] = { loz.x, loz.y, loz.z, loz.w }, bx[4] = { hix.x, hix.y, hix.z, hix.w };
+        float by[4] = { hiy.x, hiy.y, hiy.z, hiy.w }, bz[4] = { hiz.x, hiz.y, hiz.z, hiz.w };
+        for (int k = 0; k < 4; ++k)
+            if (l[k] == INFINITY)
+                l[k] = box_entry_parallel((float4)(ax[k], ay[k], az[k], 0.0f), (float4)(bx[k], by[k], bz[k], 0.0f),
+                                          org, inv_d, tmin, tmax);
+        t = (float4)(l[0], l[1], l[2], l[3]);
+    }
+    return t;
+}
+
+/* Closest hit in one leaf: updates h when a primitive is hit nearer than h->t. */
+inline void leaf_closest(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, float tmin,
+                         uint first, uint ck, HitRec* h)
+{
+    uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
+    if (kind == PRIM_TRIANGLE) {
+        for (uint i = first; i < end; ++i) {
+            __global const TriVerts* tr = tris + i;
+            float t, b1, b2;
+            if (triangle_intersect(w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, h->t, &t, &b1, &b2)) {
+                h->t = t; h->b1 = b1; h->b2 = b2; h->prim = i;
+            }
+        }
+    }
+#if TX_SPHERES
+    else if (kind == PRIM_SPHERE) {
+        for (uint i = first; i < end; ++i) {
+            float t;
+            if (sphere_intersect(spheres + i, org, dir, tmin, h->t, &t)) {
+                h->t = t; h->prim = (PRIM_SPHERE << HIT_KIND_SHIFT) | i;
+            }
+        }
+    }
+#endif
+#if TX_CYLINDERS
+    else if (kind == PRIM_CYLINDER) {
+        for (uint i = first; i < end; ++i) {
+            float t;
+            if (cylinder_intersect(cylinders + i, org, dir, tmin, h->t, &t)) {
+                h->t = t; h->prim = (PRIM_CYLINDER << HIT_KIND_SHIFT) | i;
+            }
+        }
+    }
+#endif
+#if TX_QUADS
+    else if (kind == PRIM_QUAD) {
+        for (uint i = first; i < end; ++i) {
+            float t;
+            float2 uv;
+            if (quad_intersect(quads + i, org, dir, tmin, h->t, &t, &uv)) {
+                h->t = t; h->b1 = uv.x; h->b2 = uv.y; h->prim = (PRIM_QUAD << HIT_KIND_SHIFT) | i;
+            }
+        }
+    }
+#endif
+#if TX_DISPLACEMENT
+    else if (kind == PRIM_DISPLACED) {
+        for (uint i = first; i < end; ++i) {
+            float t;
+            float2 uv;
+            if (displaced_intersect(displaced + i, heights, org, dir, tmin, h->t, 0, &t, &uv)) {
+                h->t = t; h->b1 = uv.x; h->b2 = uv.y; h->prim = (PRIM_DISPLACED << HIT_KIND_SHIFT) | i;
+            }
+        }
+    }
+#endif
+}
+
+/* 1 if a primitive of the leaf is hit with t in (tmin, tmax). */
+inline int leaf_any(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, float tmin, float tmax,
+                    uint first, uint ck)
+{
+    uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
+    float t, b1, b2;
+    if (kind == PRIM_TRIANGLE) {
+        for (uint i = first; i < end; ++i) {
+            __global const TriVerts* tr = tris + i;
+            if (triangle_intersect(w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, tmax, &t, &b1, &b2))
+                return 1;
+        }
+    }
+#if TX_SPHERES
+    else if (kind == PRIM_SPHERE) {
+        for (uint i = first; i < end; ++i)
+            if (sphere_intersect(spheres + i, org, dir, tmin, tmax, &t)) return 1;
+    }
+#endif
+#if TX_CYLINDERS
+    else if (kind == PRIM_CYLINDER) {
+        for (uint i = first; i < end; ++i)
+            if (cylinder_intersect(cylinders + i, org, dir, tmin, tmax, &t)) return 1;
+    }
+#endif
+#if TX_QUADS
+    else if (kind == PRIM_QUAD) {
+        float2 uv;
+        for (uint i = first; i < end; ++i)
+            if (quad_intersect(quads + i, org, dir, tmin, tmax, &t, &uv)) return 1;
+    }
+#endif
+#if TX_DISPLACEMENT
+    else if (kind == PRIM_DISPLACED) {
+        float2 uv;
+        for (uint i = first; i < end; ++i)
+            if (displaced_intersect(displaced + i, heights, org, dir, tmin, tmax, 1, &t, &uv)) return 1;
+    }
+#endif
+    return 0;
+}
+
+/* Compare-exchange of two (distance, child, count_kind) entries by distance. */
+#define TX_SORT2(i, j) do { if (t[j] < t[i]) { float tt_ = t[i]; t[i] = t[j]; t[j] = tt_; \
+    uint c_ = c[i]; c[i] = c[j]; c[j] = c_; c_ = k[i]; k[i] = k[j]; k[j] = c_; } } while (0)
+
+/* Closest hit of the ray (org, dir) with t in (tmin, tmax). prim = TX_MISS on a miss.
+ * The stack holds lanes (child, count_kind) with their entry distance; a lane
+ * farther than the closest hit so far is skipped when popped. At most three
+ * lanes are pushed per wide level: TX_STACK_SIZE >= 3 x the tree's depth. */
 inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
 {
     HitRec h = { tmax, 0.0f, 0.0f, TX_MISS };
@@ -72,147 +197,68 @@ inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, fl
     WoopRay w = woop_setup(org, dir);
     float3 inv_d = (float3)(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z));
     int par = fabs(inv_d.x) >= TX_PARALLEL_INV || fabs(inv_d.y) >= TX_PARALLEL_INV || fabs(inv_d.z) >= TX_PARALLEL_INV;
-    uint stack[TX_STACK_SIZE];
+    int nx = inv_d.x < 0.0f, ny = inv_d.y < 0.0f, nz = inv_d.z < 0.0f;
+    uint stack[TX_STACK_SIZE], stack_ck[TX_STACK_SIZE];
     float stack_t[TX_STACK_SIZE];
     int sp = 0;
-    uint node = 0u;
-    if (box_entry(nodes[0], nodes[1], org, inv_d, tmin, tmax, par) == INFINITY) return h;
+    uint node = 0u, ck = 0u;
     for (;;) {
-        float4 a = nodes[2u * node], b = nodes[2u * node + 1u];
-        uint ck = as_uint(b.w), first = as_uint(a.w);
         if (ck != 0u) {
-            uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
-            if (kind == PRIM_TRIANGLE) {
-                for (uint i = first; i < end; ++i) {
-                    __global const TriVerts* tr = tris + i;
-                    float t, b1, b2;
-                    if (triangle_intersect(&w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, h.t, &t, &b1, &b2)) {
-                        h.t = t; h.b1 = b1; h.b2 = b2; h.prim = i;
-                    }
-                }
-            }
-#if TX_SPHERES
-            else if (kind == PRIM_SPHERE) {
-                for (uint i = first; i < end; ++i) {
-                    float t;
-                    if (sphere_intersect(spheres + i, org, dir, tmin, h.t, &t)) {
-                        h.t = t; h.prim = (PRIM_SPHERE << HIT_KIND_SHIFT) | i;
-                    }
-                }
-            }
-#endif
-#if TX_CYLINDERS
-            else if (kind == PRIM_CYLINDER) {
-                for (uint i = first; i < end; ++i) {
-                    float t;
-                    if (cylinder_intersect(cylinders + i, org, dir, tmin, h.t, &t)) {
-                        h.t = t; h.prim = (PRIM_CYLINDER << HIT_KIND_SHIFT) | i;
-                    }
-                }
-            }
-#endif
-#if TX_QUADS
-            else if (kind == PRIM_QUAD) {
-                for (uint i = first; i < end; ++i) {
-                    float t;
-                    float2 uv;
-                    if (quad_intersect(quads + i, org, dir, tmin, h.t, &t, &uv)) {
-                        h.t = t; h.b1 = uv.x; h.b2 = uv.y; h.prim = (PRIM_QUAD << HIT_KIND_SHIFT) | i;
-                    }
-                }
-            }
-#endif
-#if TX_DISPLACEMENT
-            else if (kind == PRIM_DISPLACED) {
-                for (uint i = first; i < end; ++i) {
-                    float t;
-                    float2 uv;
-                    if (displaced_intersect(displaced + i, heights, org, dir, tmin, h.t, 0, &t, &uv)) {
-                        h.t = t; h.b1 = uv.x; h.b2 = uv.y; h.prim = (PRIM_DISPLACED << HIT_KIND_SHIFT) | i;
-                    }
-                }
-            }
-#endif
+            leaf_closest(TX_GEOM_ARGS, &w, org, dir, tmin, node, ck, &h);
         } else {
-            float tl = box_entry(nodes[2u * first], nodes[2u * first + 1u], org, inv_d, tmin, h.t, par);
-            float tr = box_entry(nodes[2u * first + 2u], nodes[2u * first + 3u], org, inv_d, tmin, h.t, par);
-            if (tl != INFINITY && tr != INFINITY) {
-                uint nearc = tl <= tr ? first : first + 1u;
-                stack[sp] = nearc == first ? first + 1u : first;
-                stack_t[sp] = TX_MAX(tl, tr);
-                ++sp;
-                node = nearc;
+            __global const float4* nd = nodes + 8u * node;
+            float4 e = box4_entry(nd, org, inv_d, nx, ny, nz, tmin, h.t, par);
+            uint4 ch = as_uint4(nd[6]), kk = as_uint4(nd[7]);
+            float t[4] = { e.x, e.y, e.z, e.w };
+            uint c[4] = { ch.x, ch.y, ch.z, ch.w }, k[4] = { kk.x, kk.y, kk.z, kk.w };
+            /* Sort the four lanes by entry distance (misses, at INFINITY, last). */
+            TX_SORT2(0, 1); TX_SORT2(2, 3); TX_SORT2(0, 2); TX_SORT2(1, 3); TX_SORT2(1, 2);
+            if (t[0] != INFINITY) {
+                for (int i = 3; i > 0; --i) {
+                    if (t[i] != INFINITY) {
+                        stack[sp] = c[i]; stack_ck[sp] = k[i]; stack_t[sp] = t[i]; ++sp;
+                    }
+                }
+                node = c[0]; ck = k[0];
                 continue;
             }
-            if (tl != INFINITY) { node = first; continue; }
-            if (tr != INFINITY) { node = first + 1u; continue; }
         }
-        /* Pop the nearest pending node that can still hold a closer hit. */
+        /* Pop the nearest pending lane that can still hold a closer hit. */
         for (;;) {
             if (sp == 0) return h;
             --sp;
             if (stack_t[sp] <= h.t) break;
         }
-        node = stack[sp];
+        node = stack[sp]; ck = stack_ck[sp];
     }
 }
+#undef TX_SORT2
 
-/* 1 if anything is hit with t in (tmin, tmax). */
+/* 1 if anything is hit with t in (tmin, tmax). Leaf lanes are tested as soon
+ * as their box is entered, interior lanes pushed. */
 inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
 {
     if (nnodes == 0u) return 0;
     WoopRay w = woop_setup(org, dir);
     float3 inv_d = (float3)(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z));
     int par = fabs(inv_d.x) >= TX_PARALLEL_INV || fabs(inv_d.y) >= TX_PARALLEL_INV || fabs(inv_d.z) >= TX_PARALLEL_INV;
+    int nx = inv_d.x < 0.0f, ny = inv_d.y < 0.0f, nz = inv_d.z < 0.0f;
     uint stack[TX_STACK_SIZE];
     int sp = 0;
     uint node = 0u;
-    if (box_entry(nodes[0], nodes[1], org, inv_d, tmin, tmax, par) == INFINITY) return 0;
     for (;;) {
-        float4 a = nodes[2u * node], b = nodes[2u * node + 1u];
-        uint ck = as_uint(b.w), first = as_uint(a.w);
-        if (ck != 0u) {
-            uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
-            float t, b1, b2;
-            if (kind == PRIM_TRIANGLE) {
-                for (uint i = first; i < end; ++i) {
-                    __global const TriVerts* tr = tris + i;
-                    if (triangle_intersect(&w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, tmax, &t, &b1, &b2))
-                        return 1;
-                }
+        __global const float4* nd = nodes + 8u * node;
+        float4 e = box4_entry(nd, org, inv_d, nx, ny, nz, tmin, tmax, par);
+        uint4 ch = as_uint4(nd[6]), kk = as_uint4(nd[7]);
+        float t[4] = { e.x, e.y, e.z, e.w };
+        uint c[4] = { ch.x, ch.y, ch.z, ch.w }, k[4] = { kk.x, kk.y, kk.z, kk.w };
+        for (int i = 0; i < 4; ++i) {
+            if (t[i] == INFINITY) continue;
+            if (k[i] != 0u) {
+                if (leaf_any(TX_GEOM_ARGS, &w, org, dir, tmin, tmax, c[i], k[i])) return 1;
+            } else {
+                stack[sp++] = c[i];
             }
-#if TX_SPHERES
-            else if (kind == PRIM_SPHERE) {
-                for (uint i = first; i < end; ++i)
-                    if (sphere_intersect(spheres + i, org, dir, tmin, tmax, &t)) return 1;
-            }
-#endif
-#if TX_CYLINDERS
-            else if (kind == PRIM_CYLINDER) {
-                for (uint i = first; i < end; ++i)
-                    if (cylinder_intersect(cylinders + i, org, dir, tmin, tmax, &t)) return 1;
-            }
-#endif
-#if TX_QUADS
-            else if (kind == PRIM_QUAD) {
-                float2 uv;
-                for (uint i = first; i < end; ++i)
-                    if (quad_intersect(quads + i, org, dir, tmin, tmax, &t, &uv)) return 1;
-            }
-#endif
-#if TX_DISPLACEMENT
-            else if (kind == PRIM_DISPLACED) {
-                float2 uv;
-                for (uint i = first; i < end; ++i)
-                    if (displaced_intersect(displaced + i, heights, org, dir, tmin, tmax, 1, &t, &uv)) return 1;
-            }
-#endif
-        } else {
-            int hl = box_entry(nodes[2u * first], nodes[2u * first + 1u], org, inv_d, tmin, tmax, par) != INFINITY;
-            int hr = box_entry(nodes[2u * first + 2u], nodes[2u * first + 3u], org, inv_d, tmin, tmax, par) != INFINITY;
-            if (hl && hr) { stack[sp++] = first + 1u; node = first; continue; }
-            if (hl) { node = first; continue; }
-            if (hr) { node = first + 1u; continue; }
         }
         if (sp == 0) return 0;
         node = stack[--sp];

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import layout
+from . import layout, wide
 from .accel import SceneBVH, build_scene_bvh
 from .errors import SceneError
 from .features import Features, max_lights_for, stack_size_for
@@ -27,7 +27,7 @@ class CompiledScene:
     cylinders: np.ndarray          # layout.CYLINDER, leaf order
     quad_verts: np.ndarray         # layout.QUAD_VERTS, leaf order
     quad_shade: np.ndarray         # layout.QUAD_SHADE, same order
-    nodes: np.ndarray              # layout.BVH_NODE
+    nodes: np.ndarray              # layout.BVH4_NODE (texray.wide), what the kernels traverse
     normals: np.ndarray | None     # float32 (V*3,), indexed by TriShade.v
     uvs: np.ndarray | None         # float32 (V*2,)
     materials: np.ndarray          # layout.MATERIAL
@@ -302,6 +302,7 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
                             layout.PRIM_CYLINDER: cyl_box, layout.PRIM_QUAD: quad_box,
                             layout.PRIM_DISPLACED: disp_box})
     order = tree.orders
+    wide_nodes, wide_depth = wide.collapse(tree.nodes)
     if layout.PRIM_TRIANGLE in order:
         tri_verts, tri_shade = tri_verts[order[layout.PRIM_TRIANGLE]], tri_shade[order[layout.PRIM_TRIANGLE]]
     if layout.PRIM_SPHERE in order:
@@ -332,10 +333,10 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
                         bump=any(m.bump is not None for m in mats.materials),
                         normal_maps=any(m.normal_map is not None for m in mats.materials),
                         displacement=len(disp) > 0,
-                        stack_size=stack_size_for(tree.depth), max_lights=max_lights_for(len(scene.lights)))
+                        stack_size=stack_size_for(3 * wide_depth), max_lights=max_lights_for(len(scene.lights)))
     return CompiledScene(
         tri_verts=tri_verts, tri_shade=tri_shade, spheres=spheres, cylinders=cylinders,
-        quad_verts=quad_verts, quad_shade=quad_shade, nodes=tree.nodes, normals=normals, uvs=uvs,
+        quad_verts=quad_verts, quad_shade=quad_shade, nodes=wide_nodes, normals=normals, uvs=uvs,
         materials=materials, textures=tex_table, texels=texels, objects=objects, lights=lights,
         ambient=np.append(_rgb(scene.ambient, "ambient", "scene."), 0).astype(np.float32),
         background=np.append(_rgb(scene.background, "background", "scene."), 0).astype(np.float32),

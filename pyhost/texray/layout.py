@@ -24,6 +24,18 @@ BVH_NODE = np.dtype([
     ("bmin", "<f4", (3,)), ("first", "<u4"),
     ("bmax", "<f4", (3,)), ("count_kind", "<u4"),
 ])
+# --- 4-wide BVH node, what the kernels traverse: 128 bytes ------------------
+# The bounds of up to four children, one float4 per bound and axis (read as
+# eight float4: lo_x, hi_x, lo_y, hi_y, lo_z, hi_z, child, count_kind).
+# Per lane: count_kind == 0 and ``child`` the wide node's index, or a leaf as
+# in BVH_NODE (``child`` = first primitive). Empty lanes have lo = +inf,
+# hi = -inf, a box no ray enters. Built by texray.wide.collapse.
+BVH4_NODE = np.dtype([
+    ("lo_x", "<f4", (4,)), ("hi_x", "<f4", (4,)),
+    ("lo_y", "<f4", (4,)), ("hi_y", "<f4", (4,)),
+    ("lo_z", "<f4", (4,)), ("hi_z", "<f4", (4,)),
+    ("child", "<u4", (4,)), ("count_kind", "<u4", (4,)),
+])
 LEAF_COUNT_BITS = 24
 LEAF_COUNT_MASK = (1 << LEAF_COUNT_BITS) - 1
 PRIM_TRIANGLE = 0
@@ -215,7 +227,7 @@ AOVS = {
 AOV_FLOATS = 20
 
 STRUCTS = {
-    "BVHNode": BVH_NODE, "TriVerts": TRI_VERTS, "TriShade": TRI_SHADE,
+    "BVHNode": BVH_NODE, "BVH4Node": BVH4_NODE, "TriVerts": TRI_VERTS, "TriShade": TRI_SHADE,
     "Sphere": SPHERE, "Cylinder": CYLINDER, "QuadVerts": QUAD_VERTS, "QuadShade": QUAD_SHADE,
     "Displaced": DISPLACED, "Material": MATERIAL,
     "TextureInfo": TEXTURE, "ObjectInfo": OBJECT, "PointLight": POINT_LIGHT, "Camera": CAMERA,
