@@ -41,6 +41,7 @@ class CompiledScene:
     bvh: SceneBVH
     displaced: np.ndarray | None = None   # layout.DISPLACED, leaf order (texray.displace)
     heights: np.ndarray | None = None     # uint16 (unorm over [hmin, hmax]) height fields and their min-max pyramids
+    wide_depth: int = 0                   # levels of the 4-wide tree in ``nodes``
 
     def device_bytes(self) -> dict[str, int]:
         """Bytes each uploaded array takes on the device (absent or empty arrays are not uploaded)."""
@@ -340,7 +341,8 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
         materials=materials, textures=tex_table, texels=texels, objects=objects, lights=lights,
         ambient=np.append(_rgb(scene.ambient, "ambient", "scene."), 0).astype(np.float32),
         background=np.append(_rgb(scene.background, "background", "scene."), 0).astype(np.float32),
-        features=features, bvh=tree, displaced=disp if len(disp) else None, heights=heights)
+        features=features, bvh=tree, displaced=disp if len(disp) else None, heights=heights,
+        wide_depth=wide_depth)
 
 
 def triangle_bounds(tri_verts):

@@ -245,7 +245,8 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     stats = {
         "width": width, "height": height, "spp": spp, "device": rt.device.name.strip(),
         "triangles": int(len(cs.tri_verts)), "spheres": int(len(cs.spheres)), "cylinders": int(len(cs.cylinders)),
-        "quads": int(len(cs.quad_verts)), "bvh_nodes": int(len(cs.nodes)), "bvh_depth": cs.bvh.depth,
+        "quads": int(len(cs.quad_verts)), "bvh_nodes": int(len(cs.nodes)), "bvh_depth": cs.wide_depth,
+        "bvh_binary_nodes": int(len(cs.bvh.nodes)), "bvh_binary_depth": cs.bvh.depth,
         "bvh_build_s": cs.bvh.build_seconds, "sah_cost": cs.bvh.sah_cost,
         "scene_compile_s": t_compiled - t_start, "program_build_s": t_built - t_compiled,
         "render_s": t_end - t_built, "total_s": t_end - t_start, "stage_s": stage_s,
