@@ -20,8 +20,14 @@ ROOT = Path(__file__).resolve().parents[1]
 
 # Where Oclgrind (if it is one of the devices) writes its diagnostics: read when a
 # context is created, so set before any test creates one.
+_OWN_OCLGRIND_LOG = "OCLGRIND_LOG" not in os.environ
 OCLGRIND_LOG = Path(os.environ.setdefault(
     "OCLGRIND_LOG", str(Path(os.environ.get("TMPDIR", "/tmp")) / f"texray-oclgrind-{os.getpid()}.log")))
+
+
+def pytest_sessionfinish(session, exitstatus):
+    if _OWN_OCLGRIND_LOG and OCLGRIND_LOG.exists() and OCLGRIND_LOG.stat().st_size == 0:
+        OCLGRIND_LOG.unlink()      # nothing logged: no litter; a log with diagnostics stays for reading
 try:
     import texray  # noqa: F401  (installed)
 except ImportError:                      # running from a source tree
