@@ -1,6 +1,7 @@
 """Closest-hit and any-hit traversal on the device against float64 brute force,
 and watertightness of the ray/triangle test on shared edges and vertices."""
 import numpy as np
+import pytest
 import trimesh
 
 import texray as tx
@@ -142,3 +143,70 @@ def test_empty_scene_misses_everything(device):
     tracer = Tracer(tx.Scene(), device)
     hits = tracer.closest(np.zeros((4, 3), np.float32), np.eye(4, 3, dtype=np.float32) + 0.1)
     assert np.all(hits.prim == -1) and np.all(np.isinf(hits.t))
+
+
+def _lattice_squares(rng, n, size=4):
+    """n unit squares (two triangles each) in the planes x, y or z = integer, on an integer lattice."""
+    axis = rng.integers(0, 3, n)
+    corner = rng.integers(0, size, (n, 3)).astype(float)
+    quad = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+    pts = np.zeros((n, 4, 3))
+    for a in range(3):                       # three axes, not per square
+        u, v = [k for k in range(3) if k != a]
+        sel = axis == a
+        pts[sel] = corner[sel, None, :]
+        pts[sel, :, u] += quad[:, 0]
+        pts[sel, :, v] += quad[:, 1]
+    faces = np.arange(4 * n).reshape(n, 4)[:, [[0, 1, 2], [0, 2, 3]]].reshape(-1, 3)
+    return pts.reshape(-1, 3), faces
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 40])
+def test_axis_parallel_rays_through_wide_nodes_match_brute_force(device, n):
+    """Rays along the axes, with zero direction components of either sign, into wide
+    nodes with empty lanes (n = 1, 2, 3 squares: 2-6 triangles) and full ones. The
+    other two coordinates of the origin are integers or half-integers: an integer one
+    lies exactly on box faces of the tree along an axis the ray is parallel to, the
+    case the slab test's exact parallel-ray path decides. Such a ray meets squares on
+    their edges, which the watertight test includes, as the float64 brute force does
+    (integer coordinates: every edge function is exactly 0 in both); which of two
+    squares sharing the edge is hit is left open, so squares are compared only for
+    rays through square interiors.
+    """
+    rng = np.random.default_rng(n)
+    p, f = _lattice_squares(rng, n)
+    scene = tx.Scene()
+    scene.add(tx.Mesh(p, f, name="squares"))
+    tracer = Tracer(scene, device)
+    g = np.arange(-1, 6)
+    h = np.concatenate([g, g + 0.5])
+    org, d = [], []
+    for a in range(3):
+        u, v = [k for k in range(3) if k != a]
+        for s in (1.0, -1.0):
+            o = np.stack(np.meshgrid(g, h, h, indexing="ij"), -1).reshape(-1, 3)
+            o = o[:, np.argsort([a, u, v])]
+            dd = np.zeros_like(o)
+            dd[:, a] = s
+            signs = rng.choice([-1.0, 1.0], (len(o), 3))
+            dd = np.where(dd == 0, 0.0 * signs, dd)          # +0.0 and -0.0
+            org.append(o)
+            d.append(dd)
+    org, d = np.concatenate(org), np.concatenate(d)
+    assert np.signbit(d[d == 0]).any() and (~np.signbit(d[d == 0])).any()
+    cs = tracer.compiled
+    p0, p1, p2 = (cs.tri_verts[k].astype(np.float64) for k in ("p0", "p1", "p2"))
+    ref_t, _, _, ref_prim = intersect(org, d, p0, p1, p2)
+    hits = tracer.closest(org.astype(np.float32), d.astype(np.float32))
+    np.testing.assert_array_equal(hits.prim >= 0, ref_prim >= 0)
+    hit = ref_prim >= 0
+    assert hit.sum() >= 3 * n, hit.sum()
+    np.testing.assert_allclose(hits.t[hit], ref_t[hit], rtol=1e-6)
+    # Same square where the ray meets its interior (at its centre, on the diagonal its
+    # two triangles share, so either triangle is right); faces 2k, 2k + 1 make square k.
+    interior = hit & np.all(np.abs(org - np.round(org)) == 0.5, axis=1, where=d == 0)
+    assert interior.any()
+    face = cs.tri_shade["prim"].astype(np.int64)
+    np.testing.assert_array_equal(face[hits.prim[interior]] // 2, face[ref_prim[interior]] // 2)
+    occ, _ = tracer.occluded(org.astype(np.float32), d.astype(np.float32), 0.0, 2.5)
+    np.testing.assert_array_equal(occ, hit & (ref_t < 2.5))
