@@ -82,101 +82,60 @@ inline float4 box4_entry(__global const float4* nd, float3 org, float3 inv_d, in
     return t;
 }
 
-/* Closest hit in one leaf: updates h when a primitive is hit nearer than h->t. */
-inline void leaf_closest(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, float tmin,
-                         uint first, uint ck, HitRec* h)
+/* The leaf's primitives against the ray with t in (tmin, h->t): a hit nearer
+ * than h->t updates h. With `any` (a compile-time constant at every call) the
+ * first hit returns 1 at once; otherwise every primitive is tested and the
+ * return value is 0. */
+inline int leaf_hit(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, float tmin,
+                    uint first, uint ck, int any, HitRec* h)
 {
     uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
+    float t;
+    float2 uv;
     if (kind == PRIM_TRIANGLE) {
         for (uint i = first; i < end; ++i) {
             __global const TriVerts* tr = tris + i;
-            float t, b1, b2;
+            float b1, b2;
             if (triangle_intersect(w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, h->t, &t, &b1, &b2)) {
                 h->t = t; h->b1 = b1; h->b2 = b2; h->prim = i;
+                if (any) return 1;
             }
         }
     }
 #if TX_SPHERES
     else if (kind == PRIM_SPHERE) {
-        for (uint i = first; i < end; ++i) {
-            float t;
+        for (uint i = first; i < end; ++i)
             if (sphere_intersect(spheres + i, org, dir, tmin, h->t, &t)) {
                 h->t = t; h->prim = (PRIM_SPHERE << HIT_KIND_SHIFT) | i;
+                if (any) return 1;
             }
-        }
     }
 #endif
 #if TX_CYLINDERS
     else if (kind == PRIM_CYLINDER) {
-        for (uint i = first; i < end; ++i) {
-            float t;
+        for (uint i = first; i < end; ++i)
             if (cylinder_intersect(cylinders + i, org, dir, tmin, h->t, &t)) {
                 h->t = t; h->prim = (PRIM_CYLINDER << HIT_KIND_SHIFT) | i;
+                if (any) return 1;
             }
-        }
     }
 #endif
 #if TX_QUADS
     else if (kind == PRIM_QUAD) {
-        for (uint i = first; i < end; ++i) {
-            float t;
-            float2 uv;
+        for (uint i = first; i < end; ++i)
             if (quad_intersect(quads + i, org, dir, tmin, h->t, &t, &uv)) {
                 h->t = t; h->b1 = uv.x; h->b2 = uv.y; h->prim = (PRIM_QUAD << HIT_KIND_SHIFT) | i;
+                if (any) return 1;
             }
-        }
     }
 #endif
 #if TX_DISPLACEMENT
     else if (kind == PRIM_DISPLACED) {
-        for (uint i = first; i < end; ++i) {
-            float t;
-            float2 uv;
-            if (displaced_intersect(displaced + i, heights, org, dir, tmin, h->t, 0, &t, &uv)) {
+        for (uint i = first; i < end; ++i)
+            if (displaced_intersect(displaced + i, heights, org, dir, tmin, h->t, any, &t, &uv)) {
                 h->t = t; h->b1 = uv.x; h->b2 = uv.y; h->prim = (PRIM_DISPLACED << HIT_KIND_SHIFT) | i;
+                if (any) return 1;
             }
-        }
-    }
-#endif
-}
-
-/* 1 if a primitive of the leaf is hit with t in (tmin, tmax). */
-inline int leaf_any(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, float tmin, float tmax,
-                    uint first, uint ck)
-{
-    uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
-    float t, b1, b2;
-    if (kind == PRIM_TRIANGLE) {
-        for (uint i = first; i < end; ++i) {
-            __global const TriVerts* tr = tris + i;
-            if (triangle_intersect(w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, tmax, &t, &b1, &b2))
-                return 1;
-        }
-    }
-#if TX_SPHERES
-    else if (kind == PRIM_SPHERE) {
-        for (uint i = first; i < end; ++i)
-            if (sphere_intersect(spheres + i, org, dir, tmin, tmax, &t)) return 1;
-    }
-#endif
-#if TX_CYLINDERS
-    else if (kind == PRIM_CYLINDER) {
-        for (uint i = first; i < end; ++i)
-            if (cylinder_intersect(cylinders + i, org, dir, tmin, tmax, &t)) return 1;
-    }
-#endif
-#if TX_QUADS
-    else if (kind == PRIM_QUAD) {
-        float2 uv;
-        for (uint i = first; i < end; ++i)
-            if (quad_intersect(quads + i, org, dir, tmin, tmax, &t, &uv)) return 1;
-    }
-#endif
-#if TX_DISPLACEMENT
-    else if (kind == PRIM_DISPLACED) {
-        float2 uv;
-        for (uint i = first; i < end; ++i)
-            if (displaced_intersect(displaced + i, heights, org, dir, tmin, tmax, 1, &t, &uv)) return 1;
     }
 #endif
     return 0;
@@ -204,7 +163,7 @@ inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, fl
     uint node = 0u, ck = 0u;
     for (;;) {
         if (ck != 0u) {
-            leaf_closest(TX_GEOM_ARGS, &w, org, dir, tmin, node, ck, &h);
+            leaf_hit(TX_GEOM_ARGS, &w, org, dir, tmin, node, ck, 0, &h);
         } else {
             __global const float4* nd = nodes + 8u * node;
             float4 e = box4_entry(nd, org, inv_d, nx, ny, nz, tmin, h.t, par);
@@ -239,6 +198,7 @@ inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, fl
 inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
 {
     if (nnodes == 0u) return 0;
+    HitRec h = { tmax, 0.0f, 0.0f, TX_MISS };
     WoopRay w = woop_setup(org, dir);
     float3 inv_d = (float3)(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z));
     int par = fabs(inv_d.x) >= TX_PARALLEL_INV || fabs(inv_d.y) >= TX_PARALLEL_INV || fabs(inv_d.z) >= TX_PARALLEL_INV;
@@ -255,7 +215,7 @@ inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tma
         for (int i = 0; i < 4; ++i) {
             if (t[i] == INFINITY) continue;
             if (k[i] != 0u) {
-                if (leaf_any(TX_GEOM_ARGS, &w, org, dir, tmin, tmax, c[i], k[i])) return 1;
+                if (leaf_hit(TX_GEOM_ARGS, &w, org, dir, tmin, c[i], k[i], 1, &h)) return 1;
             } else {
                 stack[sp++] = c[i];
             }

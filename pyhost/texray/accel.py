@@ -55,12 +55,7 @@ def build_scene_bvh(boxes: dict) -> SceneBVH:
     # SAH of the joined tree: the top's interior nodes plus each subtree's cost, rescaled
     # from its root's area to the joined root's (the subtrees' original root records stay
     # in the array, unreferenced, so the cost is not summed over the array).
-    area = _area(top.nodes)
+    area = bvh.node_area(top.nodes)
     cost = float(area[top.nodes["count_kind"] == 0].sum())
-    cost += sum(subs[k].sah_cost * _area(subs[k].nodes[:1])[0] for k in kinds)
+    cost += sum(subs[k].sah_cost * bvh.node_area(subs[k].nodes[:1])[0] for k in kinds)
     return SceneBVH(nodes, orders, cost / area[0] if area[0] > 0 else cost, depth, seconds)
-
-
-def _area(nodes):
-    e = nodes["bmax"].astype(np.float64) - nodes["bmin"].astype(np.float64)
-    return e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]

@@ -130,6 +130,13 @@ def build(bmin, bmax, *, max_leaf=4, bins=16, kind=PRIM_TRIANGLE, t_trav=1.0,
     return BVH(nodes, order, cost, depth, time.perf_counter() - t0)
 
 
+def node_area(nodes) -> np.ndarray:
+    """Half surface area (float64) of each ``layout.BVH_NODE`` record's box."""
+    lo = nodes["bmin"].astype(np.float64)
+    ext = nodes["bmax"].astype(np.float64) - lo
+    return ext[:, 0] * ext[:, 1] + ext[:, 1] * ext[:, 2] + ext[:, 2] * ext[:, 0]
+
+
 def sah_cost(nodes, t_trav=1.0, t_isect=1.0) -> float:
     """SAH cost of a tree, relative to its root's surface area.
 
@@ -140,9 +147,7 @@ def sah_cost(nodes, t_trav=1.0, t_isect=1.0) -> float:
     """
     if len(nodes) == 0:
         return 0.0
-    lo = nodes["bmin"].astype(np.float64)
-    ext = nodes["bmax"].astype(np.float64) - lo
-    area = ext[:, 0] * ext[:, 1] + ext[:, 1] * ext[:, 2] + ext[:, 2] * ext[:, 0]
+    area = node_area(nodes)
     count, _ = decode_leaf(nodes["count_kind"])
     weight = np.where(count == 0, t_trav, t_isect * count.astype(np.float64))
     if area[0] <= 0.0:

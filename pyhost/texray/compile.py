@@ -334,7 +334,7 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
                         bump=any(m.bump is not None for m in mats.materials),
                         normal_maps=any(m.normal_map is not None for m in mats.materials),
                         displacement=len(disp) > 0,
-                        stack_size=stack_size_for(3 * wide_depth), max_lights=max_lights_for(len(scene.lights)))
+                        stack_size=stack_size_for(wide.stack_depth(wide_depth)), max_lights=max_lights_for(len(scene.lights)))
     return CompiledScene(
         tri_verts=tri_verts, tri_shade=tri_shade, spheres=spheres, cylinders=cylinders,
         quad_verts=quad_verts, quad_shade=quad_shade, nodes=wide_nodes, normals=normals, uvs=uvs,

@@ -19,14 +19,17 @@ from __future__ import annotations
 
 import numpy as np
 
+from .bvh import node_area
 from .layout import BVH4_NODE
 
 WIDTH = 4
 
 
-def _area(lo, hi):
-    e = np.maximum(hi - lo, 0.0).astype(np.float64)
-    return e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 2] * e[..., 0]
+def stack_depth(depth: int) -> int:
+    """Stack entries the device traversal (kernels/bvh.h) holds at most in a wide tree of
+    ``depth`` levels: WIDTH - 1 lanes pushed per level (any-hit pushes up to WIDTH and
+    pops one at once: give ``features.stack_size_for`` this, which adds that one)."""
+    return (WIDTH - 1) * depth
 
 
 def collapse(nodes: np.ndarray) -> tuple[np.ndarray, int]:
@@ -36,7 +39,7 @@ def collapse(nodes: np.ndarray) -> tuple[np.ndarray, int]:
         return np.zeros(0, BVH4_NODE), 0
     first = nodes["first"].astype(np.int64)
     leaf = nodes["count_kind"] != 0
-    area = _area(nodes["bmin"], nodes["bmax"])
+    area = node_area(nodes)
     level = np.zeros(1, np.int64)                 # binary indices of this level's wide nodes
     if leaf[0]:
         lanes = np.full((1, WIDTH), -1, np.int64)
