@@ -302,18 +302,20 @@ def test_bad_input_names_the_field():
                       ({"resolution": 99}, "resolution")):
         with pytest.raises(tx.SceneError, match=field):
             tx.Displacement(tex, **kw)
-    from texray.compile import compile_scene
+    # Shape rules are checked when the object is made, not at render time.
     d = tx.Displacement(tex, scale=0.1)
-    s = tx.Scene(camera=tx.Camera())
-    s.add(tx.Quad((0, 0, 0), (1, 0, 0), (1.5, 0, 1), (0, 0, 1), material=tx.Material(displacement=d), name="kite"))
-    with pytest.raises(tx.SceneError, match="kite.*parallelogram"):
-        compile_scene(s)
-    s = tx.Scene(camera=tx.Camera())
-    s.add(tx.Sphere(material=tx.Material(displacement=tx.Displacement(tex, method="maxmip")), name="ball"))
-    with pytest.raises(tx.SceneError, match="ball.*maxmip"):
-        compile_scene(s)
-    s = tx.Scene(camera=tx.Camera())
-    s.add(tx.Mesh(np.eye(3), np.array([[0, 1, 2]]), material=tx.Material(displacement=d), name="tri"))
+    with pytest.raises(tx.SceneError, match="kite: material.displacement.method: .*parallelogram"):
+        tx.Quad((0, 0, 0), (1, 0, 0), (1.5, 0, 1), (0, 0, 1), material=tx.Material(displacement=d), name="kite")
+    with pytest.raises(tx.SceneError, match="ball: material.displacement.method: .*maxmip"):
+        tx.Sphere(material=tx.Material(displacement=tx.Displacement(tex, method="maxmip")), name="ball")
+    with pytest.raises(tx.SceneError, match="ball: material.displacement.offset: .*below the centre"):
+        tx.Sphere(radius=0.5, material=tx.Material(displacement=tx.Displacement(tex, offset=-1.0)), name="ball")
+    with pytest.raises(tx.SceneError, match="tri: material.displacement: triangle meshes are not displaced"):
+        tx.Mesh(np.eye(3), np.array([[0, 1, 2]]), material=tx.Material(displacement=d), name="tri")
+    from texray.compile import compile_scene
+    s = tx.Scene(camera=tx.Camera())       # a material changed after the mesh was made: refused at compile
+    s.add(tx.Mesh(np.eye(3), np.array([[0, 1, 2]]), name="tri"))
+    s.objects[0].material = tx.Material(displacement=d)
     with pytest.raises(tx.SceneError, match="tri.*displacement"):
         compile_scene(s)
     with pytest.raises(tx.SceneError, match="displacement"):

@@ -55,10 +55,10 @@ def test_sphere_and_cylinder_normals_point_outward(device):
 
 
 @pytest.mark.parametrize("make, match", [
-    (lambda: tx.Sphere(radius=0.0), r"radius: 0.0 is outside"),
-    (lambda: tx.Sphere(radius=-1.0), r"radius: -1.0 is outside"),
-    (lambda: tx.Sphere(radius=float("nan")), r"radius: expected a finite number, got nan"),
-    (lambda: tx.Sphere(axis_z=(0, 0, 0)), r"axis_z: must not be zero"),
+    (lambda: tx.Sphere(radius=0.0), r"radius: expected a number in \(0, inf\), got 0\.0"),
+    (lambda: tx.Sphere(radius=-1.0), r"radius: expected a number in \(0, inf\), got -1\.0"),
+    (lambda: tx.Sphere(radius=float("nan")), r"radius: expected a finite number in \(0, inf\), got nan"),
+    (lambda: tx.Sphere(axis_z=(0, 0, 0)), r"axis_z: expected a non-zero vector, got \[0, 0, 0\]"),
     (lambda: tx.Sphere(axis_z=(0, 1, 0), axis_x=(0, 2, 0)), r"axis_x: .* parallel to axis_z"),
     (lambda: tx.Cylinder(theta_range=(30, 30)), r"theta_range: expected \[min, max\]"),
     (lambda: tx.Cylinder(z_range=(1, 1)), r"z_range: expected"),

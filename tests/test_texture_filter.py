@@ -196,10 +196,10 @@ def test_differentials_match_float64(rt, rng):
 
 
 # --- through the renderer ---------------------------------------------------------------
-def _plane_scene(tex, eye, look_at, size=2.0, fov=40.0):
+def _plane_scene(tex, eye, look_at, size=2.0, fov=40.0, up=(0, 1, 0)):
     """A floor quad y = 0, uv = (x, -z) / (2 size) + 1/2, lit by ambient 1 only: colour = texture."""
     p, f, uv = quad(0.0, size)
-    scene = tx.Scene(camera=tx.Camera(eye=eye, look_at=look_at, fov_y=fov), ambient=(1, 1, 1))
+    scene = tx.Scene(camera=tx.Camera(eye=eye, look_at=look_at, fov_y=fov, up=up), ambient=(1, 1, 1))
     scene.add(tx.Mesh(p, f, uvs=uv, material=tx.Material(diffuse=tex), name="floor"))
     return scene
 
@@ -235,8 +235,7 @@ def test_lod_of_a_plane_at_known_distance(device):
     d = 2 ** lod_want * 2 * size * hpx / (n * 2 * np.tan(np.radians(fov / 2)))
     img = np.random.default_rng(5).uniform(0, 1, (n, n, 3)).astype(np.float32)
     tex = tx.Texture.from_array(img, filter="trilinear")
-    scene = _plane_scene(tex, eye=(0, d, 1e-9), look_at=(0, 0, 0), size=size, fov=fov)
-    scene.camera.up = (0, 0, -1)
+    scene = _plane_scene(tex, eye=(0, d, 1e-9), look_at=(0, 0, 0), size=size, fov=fov, up=(0, 0, -1))
     out = tx.render(scene, hpx, hpx, spp=1, device=device, jitter=False)
     uv, dx, dy = _floor_reference(scene, hpx, hpx, size)
     cs = compile_scene(scene)

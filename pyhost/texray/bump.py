@@ -11,6 +11,7 @@ from pathlib import Path
 
 from . import layout
 from .errors import SceneError
+from . import validate as V
 
 CONVENTIONS = {"opengl": 0, "directx": layout.TX_NORMAL_DIRECTX}
 SPACES = {"tangent": 0, "object": layout.TX_NORMAL_OBJECT}
@@ -49,10 +50,9 @@ class Bump:
         self.validate()
 
     def validate(self, where="bump."):
-        from .scene import _number
-        _number(self.height, "height", where)
-        if not (self.delta is None or self.delta == "analytic"):
-            _number(self.delta, "delta", where, 0.0, 0.5, lo_open=True)
+        V.number(self.height, "height", where, limit=V.COORD_LIMIT)
+        if not (self.delta is None or (isinstance(self.delta, str) and self.delta == "analytic")):
+            V.number(self.delta, "delta", where, 0.0, 0.5, lo_open=True)
         return self
 
     def device_delta(self):
@@ -83,10 +83,8 @@ class NormalMap:
         self.validate()
 
     def validate(self, where="normal_map."):
-        if self.convention not in CONVENTIONS:
-            raise SceneError(f"{where}convention: expected one of {', '.join(CONVENTIONS)}, got {self.convention!r}")
-        if self.space not in SPACES:
-            raise SceneError(f"{where}space: expected one of {', '.join(SPACES)}, got {self.space!r}")
+        V.one_of(self.convention, tuple(CONVENTIONS), "convention", where)
+        V.one_of(self.space, tuple(SPACES), "space", where)
         if self.texture.channels < 3:
             raise SceneError(f"{where}texture: {self.texture.name} has {self.texture.channels} channel(s); "
                              "a normal map needs 3 (RGB) or 4")

@@ -29,14 +29,35 @@ class _Progress:
             self.stream.write("\n")
 
 
+def _positive(text):
+    """argparse type: an integer >= 1 (0 is refused, not taken for "the scene's value")."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text}")
+    return v
+
+
+def _non_negative(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text}")
+    return v
+
+
 def _cmd_render(args):
     from .render import render
     from .scene import Scene
     scene = Scene.load(args.scene)
     settings = getattr(scene, "render_settings", {})
-    width = args.width or settings.get("width", 640)
-    height = args.height or settings.get("height", 480)
-    spp = args.spp or settings.get("spp", 4)
+    width = args.width if args.width is not None else settings.get("width", 640)
+    height = args.height if args.height is not None else settings.get("height", 480)
+    spp = args.spp if args.spp is not None else settings.get("spp", 4)
     seed = args.seed if args.seed is not None else settings.get("seed", 0)
     device = int(args.device) if args.device is not None and args.device.isdigit() else args.device
     bar = _Progress()
@@ -79,10 +100,10 @@ def main(argv=None):
     r = sub.add_parser("render", help="render a TOML scene file to an image")
     r.add_argument("scene")
     r.add_argument("-o", "--output", required=True, help="output image (.png, .jpg, .exr, ...)")
-    r.add_argument("--width", type=int)
-    r.add_argument("--height", type=int)
-    r.add_argument("--spp", type=int, help="samples per pixel")
-    r.add_argument("--seed", type=int)
+    r.add_argument("--width", type=_positive, help="image width in pixels (default: the scene's [render] width, else 640)")
+    r.add_argument("--height", type=_positive, help="image height in pixels (default: the scene's, else 480)")
+    r.add_argument("--spp", type=_positive, help="samples per pixel (default: the scene's, else 4)")
+    r.add_argument("--seed", type=_non_negative, help="sample-pattern seed (default: the scene's, else 0)")
     r.add_argument("--device", help="'cpu', 'gpu', an index from 'texray devices', or a name substring")
     r.add_argument("--aov", action="append", metavar="NAME",
                    help="also write this AOV (repeatable): uv, position, normal, shading_normal, depth, "

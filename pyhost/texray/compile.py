@@ -4,6 +4,7 @@ order) and a feature set. Everything is vectorized numpy over primitives (the
 only Python loops are over scene objects); only what the scene uses is produced."""
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -12,7 +13,7 @@ from . import layout, wide
 from .accel import SceneBVH, build_scene_bvh
 from .errors import SceneError
 from .features import Features, max_lights_for, stack_size_for
-from .scene import (Cylinder, Mesh, Quad, Scene, Sphere, _normal_role_textures, _rgb, degenerate_faces,
+from .scene import (Cylinder, Mesh, Quad, Scene, Sphere, _normal_role_textures, check_extent, degenerate_faces,
                     object_frame, warn_degenerate)
 from .displace import tessellate
 from .texture import FILTERS
@@ -125,10 +126,8 @@ def _meshes(items, mats, any_normals, any_uvs):
         mat = mats.index(mesh.material)
         p, n = mesh.world()
         f = mesh.faces
+        check_extent(p, f"{mesh.name}: ", "positions")
         p32 = p.astype(np.float32)
-        if not np.all(np.isfinite(p32)):
-            raise SceneError(f"{mesh.name}: positions overflow float32 after the transform "
-                             f"(largest magnitude {np.abs(p).max():.3g})")
         degenerate = degenerate_faces(p32.astype(np.float64), f)
         if degenerate.all():
             raise SceneError(f"{mesh.name}: faces: all {len(f)} triangles have zero area; nothing to render")
@@ -190,9 +189,7 @@ def _quads(items, mats):
         p, uv = q.world()
         corners[i] = p
         qs[i]["uv"], qs[i]["material"], qs[i]["object"] = uv.ravel(), mats.index(q.material), obj_id
-    p32 = corners.astype(np.float32)
-    if not np.all(np.isfinite(p32)):
-        raise SceneError("quad: corners overflow float32")
+    p32 = corners.astype(np.float32)      # Quad.world checked |corners| <= validate.COORD_LIMIT
     qv["p0"], qv["p1"], qv["p2"], qv["p3"] = p32[:, 0], p32[:, 1], p32[:, 2], p32[:, 3]
     # A bilinear patch lies in the convex hull of its corners: their float32 box is exact.
     return qv, qs, (p32.min(axis=1), p32.max(axis=1))
@@ -223,40 +220,26 @@ def _displaced(items, mats):
         r["material"], r["object"] = mats.index(o.material), obj_id
         if isinstance(o, Quad):
             p, uv = o.world()
-            e0, e1 = p[1] - p[0], p[3] - p[0]
-            size = max(np.abs(p).max(), np.linalg.norm(e0), np.linalg.norm(e1))
-            # A parallelogram to float32 precision (2^-20 of its size): (u, v, h) are then
-            # affine along a ray, which the search and the maxmip traversal rely on.
-            if np.linalg.norm(p[0] + p[2] - p[1] - p[3]) > 2.0 ** -20 * size:
-                raise SceneError(f"{where}method: {d.method!r} displaces planar parallelogram quads only "
-                                 f"(p0 + p2 = p1 + p3); this quad's corners are {p.tolist()}: use "
-                                 "method = \"tessellate\"")
+            e0, e1 = p[1] - p[0], p[3] - p[0]          # Quad.world checked it is a parallelogram
             n = np.cross(e0, e1)
             n /= np.linalg.norm(n)
             r["shape"], r["p"], r["e0"], r["e1"], r["n"], r["uv"] = layout.DISP_QUAD, p[0], e0, e1, n, uv.ravel()
             c = np.concatenate([p + hmin * n, p + hmax * n])
             lo[i], hi[i] = c.min(axis=0), c.max(axis=0)
-        elif d.method == "maxmip":
-            raise SceneError(f"{where}method: 'maxmip' needs (u, v, h) affine along rays: planar quads only; "
-                             f"{type(o).__name__} {o.name} takes 'search' or 'tessellate'")
-        elif isinstance(o, Sphere):
+        elif isinstance(o, Sphere):         # Sphere.world checked the method and the lowest height
             c, rad, x, z = o.world()
-            if rad + hmin < 0:
-                raise SceneError(f"{where}offset: the lowest height {hmin:g} is below the centre of a sphere "
-                                 f"of radius {rad:g}")
             r["shape"], r["p"], r["radius"], r["e0"], r["e1"], r["n"] = layout.DISP_SPHERE, c, rad, x, np.cross(z, x), z
             lo[i], hi[i] = c - (rad + hmax), c + (rad + hmax)
         else:
             o_, rad, x, z, (z0, z1), (t0, t1) = o.world()
-            if rad + hmin < 0:
-                raise SceneError(f"{where}offset: the lowest height {hmin:g} is below the axis of a cylinder "
-                                 f"of radius {rad:g}")
             r["shape"], r["p"], r["radius"], r["e0"], r["e1"], r["n"] = (layout.DISP_CYLINDER, o_, rad, x,
                                                                           np.cross(z, x), z)
             r["z_min"], r["z_max"], r["theta_min"], r["theta_max"] = z0, z1, t0, t1
             ends = o_ + np.outer([z0, z1], z)
             ext = (rad + hmax) * np.sqrt(np.maximum(0.0, 1.0 - z * z))
             lo[i], hi[i] = ends.min(axis=0) - ext, ends.max(axis=0) + ext
+    for (_, o), a, b in zip(items, lo, hi):
+        check_extent(np.stack([a, b]), f"{o.name}: material.displacement.", "scale, offset")
     # The kernel pads the volume by a rounding bound of the ray's height (displace.h);
     # 2^-16 of the box's size keeps that pad inside the box for rays from within it.
     pad = 2.0 ** -16 * (np.abs(lo).max(axis=1) + np.abs(hi).max(axis=1) + (hi - lo).max(axis=1))[:, None]
@@ -273,6 +256,9 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
     ``texture_filter``: None, or a filter name that replaces every texture's own."""
     if not isinstance(scene, Scene):
         raise SceneError(f"render: expected a texray.Scene, got {type(scene).__name__}")
+    ambient, background = scene.validate()
+    if not scene.lights and scene.objects and not np.any(ambient > 0):
+        warnings.warn("scene: no lights and no ambient light: every object renders black", stacklevel=3)
     if texture_filter is not None and (not isinstance(texture_filter, str) or texture_filter not in FILTERS):
         raise SceneError(f"render: texture_filter: expected None or one of {', '.join(FILTERS)}, "
                          f"got {texture_filter!r}")
@@ -282,7 +268,7 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
         d = getattr(obj.material, "displacement", None)
         if d is None:
             by_kind[type(obj)].append((obj_id, obj))
-        elif isinstance(obj, Mesh):
+        elif isinstance(obj, Mesh):          # Mesh validation refuses displacement; the material changed since
             raise SceneError(f"{obj.name}: material.displacement: triangle meshes are not displaced (no sound "
                              "bounding volume chosen); use a quad, sphere or cylinder")
         elif d.method == "tessellate":
@@ -339,8 +325,8 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
         tri_verts=tri_verts, tri_shade=tri_shade, spheres=spheres, cylinders=cylinders,
         quad_verts=quad_verts, quad_shade=quad_shade, nodes=wide_nodes, normals=normals, uvs=uvs,
         materials=materials, textures=tex_table, texels=texels, objects=objects, lights=lights,
-        ambient=np.append(_rgb(scene.ambient, "ambient", "scene."), 0).astype(np.float32),
-        background=np.append(_rgb(scene.background, "background", "scene."), 0).astype(np.float32),
+        ambient=np.append(ambient, 0).astype(np.float32),
+        background=np.append(background, 0).astype(np.float32),
         features=features, bvh=tree, displaced=disp if len(disp) else None, heights=heights,
         wide_depth=wide_depth)
 

@@ -27,6 +27,7 @@ from pathlib import Path
 # POCL_WORK_GROUP_METHOD wins. Other OpenCL drivers ignore it.
 os.environ.setdefault("POCL_WORK_GROUP_METHOD", "loops")
 
+import numpy as np  # noqa: E402
 import pyopencl as cl  # noqa: E402
 
 from .errors import BuildError, DeviceError
@@ -111,16 +112,26 @@ def select_device(device=None) -> cl.Device:
     if isinstance(device, cl.Device):
         return device
     if device is None:
-        if os.environ.get("PYOPENCL_CTX"):
-            return cl.create_some_context(interactive=False).devices[0]
+        ctx = os.environ.get("PYOPENCL_CTX")
+        if ctx:
+            try:
+                return cl.create_some_context(interactive=False).devices[0]
+            except Exception as e:     # pyopencl raises RuntimeError, ValueError or IndexError for a bad value
+                raise DeviceError(f"PYOPENCL_CTX={ctx!r} names no device ({type(e).__name__}: {e}); pyopencl's "
+                                  "syntax is PLATFORM[:DEVICE] (indices or name substrings); available: "
+                                  + "; ".join(map(str, devices()))) from None
         for want in ("gpu", "cpu"):
             for d in devs:
                 if _type_name(d.type) == want:
                     return d
         return devs[0]
-    if isinstance(device, bool) or not isinstance(device, (int, str)):
-        raise DeviceError(f"device: expected None, an int or a str, got {device!r}")
-    if isinstance(device, int):
+    if isinstance(device, (bool, np.bool_)) or not isinstance(device, (int, np.integer, str)):
+        raise DeviceError(f"device: expected None, an int or a str, got {type(device).__name__} {device!r}")
+    if isinstance(device, str) and not device.strip():
+        raise DeviceError(f"device: expected a device index, 'cpu', 'gpu' or a name, got {device!r}; "
+                          "available: " + "; ".join(map(str, devices())))
+    if isinstance(device, (int, np.integer)):
+        device = int(device)
         if not 0 <= device < len(devs):
             raise DeviceError(f"device: index {device} out of range; {len(devs)} device(s): "
                               + "; ".join(map(str, devices())))

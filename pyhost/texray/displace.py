@@ -35,6 +35,7 @@ import numpy as np
 
 from . import layout
 from .errors import SceneError
+from . import validate as V
 
 METHODS = ("search", "maxmip", "tessellate")
 METHOD_IDS = {"search": layout.DISP_SEARCH, "maxmip": layout.DISP_MAXMIP}   # layout.DISPLACED.method
@@ -42,12 +43,6 @@ METHOD_ADAPTIVE = layout.DISP_ADAPTIVE                                     # its
 MAX_STEPS = 4096
 MAX_REFINE = 32
 MAX_RESOLUTION = 16
-
-
-def _int(value, name, where, lo, hi):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
-        raise SceneError(f"{where}{name}: expected an integer in [{lo}, {hi}], got {value!r}")
-    return int(value)
 
 
 @dataclass
@@ -77,19 +72,16 @@ class Displacement:
         self.validate()
 
     def validate(self, where="displacement."):
-        from .scene import _number
         from .texture import Texture
-        if not isinstance(self.texture, Texture):
-            raise SceneError(f"{where}texture: expected a texray.Texture, got {self.texture!r}")
-        _number(self.scale, "scale", where)
-        _number(self.offset, "offset", where)
-        if self.method not in METHODS:
-            raise SceneError(f"{where}method: expected one of {', '.join(METHODS)}, got {self.method!r}")
-        _int(self.steps, "steps", where, 1, MAX_STEPS)
-        _int(self.refine, "refine", where, 0, MAX_REFINE)
-        _int(self.resolution, "resolution", where, 1, MAX_RESOLUTION)
+        V.instance(self.texture, Texture, "texture", where)
+        V.number(self.scale, "scale", where, limit=V.COORD_LIMIT)
+        V.number(self.offset, "offset", where, limit=V.COORD_LIMIT)
+        V.one_of(self.method, METHODS, "method", where)
+        V.integer(self.steps, "steps", where, 1, MAX_STEPS)
+        V.integer(self.refine, "refine", where, 0, MAX_REFINE)
+        V.integer(self.resolution, "resolution", where, 1, MAX_RESOLUTION)
         if not isinstance(self.adaptive, (bool, np.bool_)):
-            raise SceneError(f"{where}adaptive: expected true or false, got {self.adaptive!r}")
+            raise SceneError(f"{where}adaptive: expected true or false, got {V.show(self.adaptive)}")
         t = self.texture
         if t.uv_transform is not None and not _identity(t.uv_transform):
             raise SceneError(f"{where}texture: {t.name}: a height texture takes no uv_transform (the height "
@@ -303,7 +295,7 @@ def tessellate(obj, resolution=None):
     """
     from .scene import Mesh, Quad
     d = obj.material.displacement
-    res = d.resolution if resolution is None else _int(resolution, "resolution", "tessellate: ", 1, MAX_RESOLUTION)
+    res = d.resolution if resolution is None else V.integer(resolution, "resolution", "tessellate: ", 1, MAX_RESOLUTION)
     hh, hw = d.texture.shape
     us, vs = _axis_nodes(hw, res), _axis_nodes(hh, res)
     uu, vv = np.meshgrid(us, vs)

@@ -7,6 +7,7 @@ import numpy as np
 
 from .colour import linear_to_srgb
 from .errors import SceneError
+from .validate import file_path
 
 _LINEAR_FORMATS = {".exr", ".hdr", ".pfm"}
 
@@ -18,9 +19,7 @@ def read_image(path, field="texture"):
     naming the file for a missing, unreadable or empty image.
     """
     import OpenImageIO as oiio
-    path = Path(path)
-    if not path.is_file():
-        raise SceneError(f"{field}: file not found: {path}")
+    path = file_path(path, "", field)
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
         raise SceneError(f"{field}: cannot read image {path}: {oiio.geterror() or 'unknown format'}")

@@ -29,6 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import SceneError
+
 __all__ = [
     "MeshData", "grid", "lathe", "uv_sphere", "torus", "vase_profile", "vase",
     "displaced_sphere", "bench_mesh",
@@ -555,3 +557,69 @@ def label(size=(256, 512), seed=2, color=(0.85, 0.12, 0.1), ink=(0.98, 0.95, 0.8
     qy = np.maximum(np.abs(y - 0.5) - (0.5 - 2 * inset), 0)
     alpha = (np.hypot(qx, qy) < inset).astype(np.float64)
     return _as_texture(rgb[..., 0], rgb[..., 1], rgb[..., 2], alpha)
+
+
+# =============================================================================
+# Parameter checks of the texture generators (Texture.procedural, scene files)
+# =============================================================================
+
+MAX_TEXTURE_SIDE = 8192           # texels per side of a generated texture
+MAX_TEXTURE_TEXELS = 1 << 24      # texels in all (float64 intermediates: ~1 GiB at this size)
+MAX_COUNT = 1024                  # checks, bricks, tiles, noise cells... across a texture
+MAX_OCTAVES = 16
+
+# Parameters by role; a generator's other parameters are colours (3 numbers in [0, 1]).
+_COUNTS = ("n_checks", "cells")             # an int or an (ny, nx) pair, >= 1
+_INT_COUNTS = ("n_rows", "n_cols", "n")     # an int >= 1
+_FRACTIONS = ("mortar", "grout", "variation", "roughness", "sea_level")   # in [0, 1]
+_POSITIVE_FRACTIONS = ("bevel", "persistence")                    # in (0, 1]
+_AMOUNTS = ("n_rings", "n_veins")                                 # numbers in [0, MAX_COUNT]
+
+
+def check_texture_params(fn, params, where):
+    """SceneError naming ``where``PARAM unless ``params`` suit generator ``fn`` (known names,
+    sizes within MAX_TEXTURE_SIDE / MAX_TEXTURE_TEXELS, counts >= 1, fractions in range)."""
+    import inspect
+    from . import validate as V
+    known = inspect.signature(fn).parameters
+    for key, value in params.items():
+        if key not in known:
+            raise SceneError(f"{where}{key}: not a parameter of {fn.__name__} (allowed: {', '.join(known)})")
+        if key == "size":
+            hw = V.vector(value, 2, key, where, broadcast=True, positive=True)
+            if not np.all(hw == np.round(hw)) or not all(_is_int(v) for v in np.atleast_1d(value)):
+                V.fail(where, key, "an integer or (height, width) integers >= 1", value)
+            if hw.max() > MAX_TEXTURE_SIDE or hw.prod() > MAX_TEXTURE_TEXELS:
+                V.fail(where, key, f"at most {MAX_TEXTURE_SIDE} texels a side and {MAX_TEXTURE_TEXELS} in all",
+                       value)
+        elif key == "seed":
+            V.integer(value, key, where, 0, 2**63 - 1)
+        elif key == "octaves":
+            V.integer(value, key, where, 1, MAX_OCTAVES)
+        elif key in _INT_COUNTS:
+            V.integer(value, key, where, 1, MAX_COUNT)
+        elif key in _COUNTS:
+            pair = V.vector(value, 2, key, where, broadcast=True)
+            if not all(_is_int(v) for v in np.atleast_1d(value)) or pair.min() < 1 or pair.max() > MAX_COUNT:
+                V.fail(where, key, f"an integer or a pair of integers in [1, {MAX_COUNT}]", value)
+        elif key in _FRACTIONS:
+            V.number(value, key, where, 0.0, 1.0)
+        elif key in _POSITIVE_FRACTIONS:
+            V.number(value, key, where, 0.0, 1.0, lo_open=True)
+        elif key in _AMOUNTS:
+            V.number(value, key, where, 0.0, MAX_COUNT)
+        elif key == "offset":
+            V.number(value, key, where, -MAX_COUNT, MAX_COUNT)
+        else:
+            V.vector(value, 3, key, where, nonneg=True)
+            if np.any(np.asarray(value, dtype=np.float64) > 1):
+                V.fail(where, key, "an RGB colour, 3 numbers in [0, 1]", value)
+    octaves = params.get("octaves", known["octaves"].default if "octaves" in known else 1)
+    cells = params.get("cells", known["cells"].default if "cells" in known else 1)
+    if "cells" in known and np.max(cells) * 2 ** (octaves - 1) > MAX_COUNT:
+        raise SceneError(f"{where}cells, octaves: the finest octave has {V.show(cells)} x 2^{octaves - 1} "
+                         f"lattice cells; at most {MAX_COUNT}")
+
+
+def _is_int(v):
+    return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))

@@ -9,6 +9,7 @@ tile by tile, so device memory does not grow with the image size.
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from dataclasses import dataclass, field
 
@@ -21,6 +22,7 @@ from .device import runtime
 from .errors import DeviceError, SceneError
 from .features import Features, compile_options
 from .texture import check_device_limits
+from . import validate as V
 
 STAGES = ("raygen", "intersect", "surface", "shadow", "shade")
 # Bytes per in-flight ray besides the shadow bytes: Ray + Hit + Surface + accumulator.
@@ -45,10 +47,39 @@ class Image:
             write_image(path, self.rgb)
 
 
-def _positive_int(value, name):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
-        raise SceneError(f"render: {name} must be a positive integer, got {value!r}")
+def _positive_int(value, name, hi=None):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value <= 0:
+        raise SceneError(f"render: {name}: expected a positive integer, got {V.show(value)}")
+    if hi is not None and value > hi:
+        raise SceneError(f"render: {name}: expected a positive integer <= {hi}, got {V.show(value)}")
     return int(value)
+
+
+def _host_image_bytes(width, height, aovs):
+    return width * height * (16 + 4 * layout.AOV_FLOATS * bool(aovs))
+
+
+def _check_host_memory(nbytes, width, height):
+    """SceneError when the image kept in host memory cannot fit the memory available."""
+    try:
+        avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") + _swap_free()
+    except (ValueError, OSError, AttributeError):     # not POSIX: let numpy report it
+        return
+    if nbytes > avail:
+        raise SceneError(f"render: width, height: a {width} x {height} image needs {nbytes / 2**30:.1f} GiB of host "
+                         f"memory and {avail / 2**30:.1f} GiB are available; render_to_file(...) or sink= "
+                         "streams the image band by band")
+
+
+def _swap_free():
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("SwapFree:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 0
 
 
 class _Uploaded:
@@ -116,15 +147,23 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     "trilinear" or "anisotropic" for every texture (texray.texture.FILTERS); for a precompiled
     scene pass it to compile_scene instead.
     """
-    width, height, spp = _positive_int(width, "width"), _positive_int(height, "height"), _positive_int(spp, "spp")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-        raise SceneError(f"render: seed must be an integer, got {seed!r}")
-    aovs = (aovs,) if isinstance(aovs, str) else tuple(aovs)
+    width, height, spp, seed = V.render_settings(width, height, spp, seed)
+    if isinstance(aovs, str):
+        aovs = (aovs,)
+    if not isinstance(aovs, (list, tuple)):
+        raise SceneError(f"render: aovs: expected a list of AOV names, got {V.show(aovs)}")
+    aovs = tuple(aovs)
     for a in aovs:
-        if a not in layout.AOVS:
-            raise SceneError(f"render: aovs: unknown AOV {a!r} (known: {', '.join(layout.AOVS)})")
-    if pipeline not in PIPELINES:
-        raise SceneError(f"render: pipeline: expected one of {', '.join(PIPELINES)}, got {pipeline!r}")
+        if not isinstance(a, str) or a not in layout.AOVS:
+            raise SceneError(f"render: aovs: unknown AOV {V.show(a)} (known: {', '.join(layout.AOVS)})")
+    V.one_of(pipeline, PIPELINES, "pipeline", "render: ")
+    V.callable_or_none(progress, "progress", "render: ")
+    V.callable_or_none(sink, "sink", "render: ")
+    for name, value in (("jitter", jitter), ("shadows", shadows), ("specialize", specialize)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise SceneError(f"render: {name}: expected True or False, got {V.show(value)}")
+    if sink is None:
+        _check_host_memory(_host_image_bytes(width, height, aovs), width, height)
     t_start = time.perf_counter()
     if compiled is None:
         cs = compile_scene(scene, shadows=shadows, texture_filter=texture_filter)
@@ -194,7 +233,7 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     def trace(gsize, n, y0, sample, jit, aov):
         events["raygen"].append(k["raygen"](q, gsize, lsize, rays, cam_buf, u32(width), u32(height), u32(0),
                                             u32(y0), u32(width), u32(n), u32(sample), u32(spp),
-                                            u32(seed & 0xFFFFFFFF), u32(jit)))
+                                            u32(seed), u32(jit)))
         events["intersect"].append(k["intersect"](q, gsize, lsize, rays, hits, u32(n), *up.geom))
         events["surface"].append(k["surface"](q, gsize, lsize, rays, hits, surf, u32(n), *up.geom,
                                               *surface_args, aov))
@@ -208,7 +247,7 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         for first in range(0, spp, per_launch) if fused else ():
             count = min(per_launch, spp - first)
             events["render_fused"].append(k["render_fused"](
-                q, gsize, lsize, accum, u32(n), u32(y0), u32(first), u32(count), u32(seed & 0xFFFFFFFF),
+                q, gsize, lsize, accum, u32(n), u32(y0), u32(first), u32(count), u32(seed),
                 u32(jitter), *up.geom, *surface_args, up.lights, up.nlights, cs.ambient, cs.background))
             passes += 1
             if progress is not None:

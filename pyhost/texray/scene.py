@@ -6,6 +6,7 @@ made or loaded, so bad input fails early with the file, field and value.
 """
 from __future__ import annotations
 
+import re
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -15,25 +16,21 @@ import numpy as np
 from .errors import SceneError
 from .texture import Label, Texture
 from .transform import Transform, _vec3, apply_normals, apply_points
+from . import validate as V
 
 
 def _rgb(value, field, where="", nonneg=True):
-    v = _vec3(value, field, where)
-    if nonneg and np.any(v < 0):
-        raise SceneError(f"{where}{field}: values must be >= 0, got {value!r}")
-    return v
+    """A colour or intensity: a number or 3 numbers, finite in float32 (>= 0 unless ``nonneg`` is False)."""
+    return V.rgb(value, field, where) if nonneg else V.vector(value, 3, field, where, broadcast=True)
 
 
 def _number(value, field, where="", lo=None, hi=None, lo_open=False):
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise SceneError(f"{where}{field}: expected a number, got {value!r}")
-    v = float(value)
-    if not np.isfinite(v):
-        raise SceneError(f"{where}{field}: expected a finite number, got {value!r}")
-    if (lo is not None and (v <= lo if lo_open else v < lo)) or (hi is not None and v > hi):
-        rng = f"{'(' if lo_open else '['}{lo if lo is not None else '-inf'}, {hi if hi is not None else 'inf'}]"
-        raise SceneError(f"{where}{field}: {value!r} is outside {rng}")
-    return v
+    return V.number(value, field, where, lo, hi, lo_open=lo_open)
+
+
+# Smallest sine of the angle between the viewing direction and `up` that still gives a
+# well-defined image orientation (the camera's right axis is their cross product).
+_MIN_UP_SINE = 1e-9
 
 
 @dataclass
@@ -44,19 +41,25 @@ class Camera:
     up: tuple = (0.0, 1.0, 0.0)
     fov_y: float = 40.0
 
+    def __post_init__(self):
+        self.basis(1.0)
+
     def basis(self, aspect: float, where="camera."):
         """(eye, forward, right, up) with right/up scaled so that NDC (+-1, +-1) hits the image corners."""
-        eye = _vec3(self.eye, "eye", where)
-        look = _vec3(self.look_at, "look_at", where)
-        up = _vec3(self.up, "up", where)
-        fov = _number(self.fov_y, "fov_y", where, 0.0, 179.0, lo_open=True)
+        eye = V.point(self.eye, "eye", where)
+        look = V.point(self.look_at, "look_at", where)
+        up = V.vector(self.up, 3, "up", where)
+        fov = V.number(self.fov_y, "fov_y", where, 0.0, 179.0, lo_open=True)
         fwd = look - eye
         if np.linalg.norm(fwd) == 0:
-            raise SceneError(f"{where}look_at: equals eye {tuple(eye)}; the camera has no direction")
+            raise SceneError(f"{where}look_at: equals eye {V.show(eye)}; the camera has no direction")
         fwd /= np.linalg.norm(fwd)
-        right = np.cross(fwd, up)
-        if np.linalg.norm(right) < 1e-9 * np.linalg.norm(up):
-            raise SceneError(f"{where}up: {tuple(up)} is parallel to the viewing direction {tuple(fwd)}")
+        if np.linalg.norm(up) == 0:
+            raise SceneError(f"{where}up: expected a non-zero vector, got {V.show(self.up)}")
+        right = np.cross(fwd, up / np.linalg.norm(up))
+        if np.linalg.norm(right) < _MIN_UP_SINE:
+            raise SceneError(f"{where}up: {V.show(self.up)} is parallel to the viewing direction "
+                             f"{V.show(fwd)}")
         right /= np.linalg.norm(right)
         true_up = np.cross(right, fwd)
         h = np.tan(np.radians(fov) / 2)
@@ -69,8 +72,11 @@ class PointLight:
     position: tuple
     intensity: tuple = (10.0, 10.0, 10.0)
 
+    def __post_init__(self):
+        self.validate()
+
     def validate(self, where="light."):
-        return _vec3(self.position, "position", where), _rgb(self.intensity, "intensity", where)
+        return V.point(self.position, "position", where), V.rgb(self.intensity, "intensity", where)
 
 
 @dataclass
@@ -99,13 +105,18 @@ class Material:
     label: object = None
     displacement: object = None    # a texray.Displacement (texray.displace): the geometry moves
 
+    def __post_init__(self):
+        self.validate()
+
     def validate(self, where="material."):
         if isinstance(self.diffuse, Texture):
-            kd = _rgb(self.tint, "tint", where)
+            kd = V.rgb(self.tint, "tint", where)
         else:
-            kd = _rgb(self.diffuse, "diffuse", where) * _rgb(self.tint, "tint", where)
-        ks = np.ones(3) if isinstance(self.specular, Texture) else _rgb(self.specular, "specular", where)
-        n = _number(self.shininess, "shininess", where, 0.0)
+            kd = V.rgb(self.diffuse, "diffuse", where) * V.rgb(self.tint, "tint", where)
+            if np.any(kd > V.FLT_MAX):
+                raise SceneError(f"{where}diffuse, tint: their product {V.show(kd)} overflows float32")
+        ks = np.ones(3) if isinstance(self.specular, Texture) else V.rgb(self.specular, "specular", where)
+        n = V.number(self.shininess, "shininess", where, 0.0)
         if self.shininess_map is not None and not isinstance(self.shininess_map, Texture):
             raise SceneError(f"{where}shininess_map: expected a texray.Texture, got {self.shininess_map!r}")
         if self.shininess_map is not None and self.shininess_map.channels != 1:
@@ -187,57 +198,78 @@ class Mesh:
     def load(cls, path, material=None, transform=None, mapping=None):
         """Load OBJ, PLY, GLB/GLTF, OFF or STL through trimesh (unprocessed: nothing is silently merged or dropped)."""
         import trimesh
-        path = Path(path)
-        if not path.is_file():
-            raise SceneError(f"mesh: file not found: {path}")
+        path = V.file_path(path, "mesh")
+        data = path.read_bytes()
+        kind = path.suffix.lower().lstrip(".")
+        if kind in _TEXT_MESH_FORMATS:
+            try:
+                data.decode("utf-8")
+            except UnicodeDecodeError as e:
+                raise SceneError(f"mesh: cannot read {path}: not UTF-8 text ({kind.upper()} is a text format; "
+                                 f"byte {data[e.start]:#04x} at offset {e.start})") from None
         try:
             loaded = trimesh.load(str(path), process=False)
         except Exception as e:   # trimesh raises many kinds of errors for unreadable files
             raise SceneError(f"mesh: cannot read {path}: {type(e).__name__}: {e}") from None
-        parts = _flatten(loaded)
+        try:
+            parts = _flatten(loaded)
+        except Exception as e:   # malformed files can leave trimesh objects inconsistent
+            raise SceneError(f"mesh: cannot read {path}: {type(e).__name__}: {e}") from None
         if not parts or sum(len(f) for _, f, _, _ in parts) == 0:
             raise SceneError(f"mesh: {path} contains no triangles")
         offsets = np.cumsum([0] + [len(p) for p, _, _, _ in parts])
         positions = np.concatenate([p for p, _, _, _ in parts])
         faces = np.concatenate([f + o for (_, f, _, _), o in zip(parts, offsets)])
+        if kind == "obj":
+            _warn_dropped_faces(path, data, len(faces))
         uvs = None if any(u is None for _, _, u, _ in parts) else np.concatenate([u for _, _, u, _ in parts])
         normals = None if any(n is None for _, _, _, n in parts) else np.concatenate([n for _, _, _, n in parts])
         return cls(positions, faces, uvs, normals,
                    material if material is not None else Material(), transform, str(path), mapping)
 
     def _validate(self):
+        if not isinstance(self.name, str):
+            raise SceneError(f"mesh: name: expected a string, got {V.show(self.name)}")
         where = f"{self.name}: "
-        p = np.asarray(self.positions, dtype=np.float64)
-        f = np.asarray(self.faces)
-        if p.ndim != 2 or p.shape[1] != 3:
-            raise SceneError(f"{where}positions: expected shape (V, 3), got {p.shape}")
-        if f.ndim != 2 or f.shape[1] != 3 or not np.issubdtype(f.dtype, np.integer):
-            raise SceneError(f"{where}faces: expected integer shape (F, 3), got {f.dtype} {f.shape}")
-        bad = ~np.all(np.isfinite(p), axis=1)
+        p = V.array(self.positions, "positions", where, 3)
+        f = V.array(self.faces, "faces", where, 3, integer_values=True)
+        bad = ~np.all(np.abs(p) <= V.COORD_LIMIT, axis=1)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise SceneError(f"{where}positions: vertex {i} is {tuple(p[i])} ({int(bad.sum())} non-finite vertices)")
+            what = "non-finite" if not np.all(np.isfinite(p[i])) else f"beyond +-{V.COORD_LIMIT:.0e}"
+            raise SceneError(f"{where}positions: vertex {i} is {V.show(p[i])} ({int(bad.sum())} {what} vertices)")
         if f.size and (f.min() < 0 or f.max() >= len(p)):
             i = int(np.flatnonzero((f < 0).any(1) | (f >= len(p)).any(1))[0])
-            raise SceneError(f"{where}faces: face {i} = {tuple(f[i])} indexes outside 0..{len(p) - 1}")
+            raise SceneError(f"{where}faces: face {i} = {V.show(f[i])} indexes outside 0..{len(p) - 1}")
+        arrays = {}
         for name, arr, width in (("uvs", self.uvs, 2), ("normals", self.normals, 3)):
             if arr is None:
                 continue
-            a = np.asarray(arr, dtype=np.float64)
+            a = V.array(arr, name, where, width)
             if a.shape != (len(p), width):
                 raise SceneError(f"{where}{name}: expected shape ({len(p)}, {width}), got {a.shape}")
-            bad = ~np.all(np.isfinite(a), axis=1)
+            bad = ~np.all(np.abs(a) <= V.FLT_MAX, axis=1)
             if bad.any():
                 i = int(np.flatnonzero(bad)[0])
-                raise SceneError(f"{where}{name}: vertex {i} is {tuple(a[i])}")
-        if not isinstance(self.material, Material):
-            raise SceneError(f"{where}material: expected a texray.Material, got {type(self.material).__name__}")
+                raise SceneError(f"{where}{name}: vertex {i} is {V.show(a[i])} (not finite in float32)")
+            arrays[name] = a
+        if "normals" in arrays:
+            arrays["normals"] = _tame_normals(arrays["normals"])
+        if self.transform is not None:
+            V.instance(self.transform, Transform, "transform", where)
+            self.transform.matrix(where + "transform.")
+        V.instance(self.material, Material, "material", where)
         self.material.validate(f"{where}material.")
+        d = self.material.displacement
+        if d is not None and d.method != "tessellate":    # tessellated shapes are meshes with the shape's material
+            raise SceneError(f"{where}material.displacement: triangle meshes are not displaced (no sound "
+                             "bounding volume chosen); use a quad, sphere or cylinder")
         _check_mapping(self.mapping, where)
         if self.material.textures and self.uvs is None and self.mapping is None:
             raise SceneError(f"{where}uvs: the material has a texture ({self.material.textures[0].name}) "
                              "but the mesh has no texture coordinates")
-        self.positions, self.faces = p, f.astype(np.int64)
+        self.positions, self.faces = p, f
+        self.uvs, self.normals = arrays.get("uvs"), arrays.get("normals")
 
     def world(self):
         """(positions, normals) in world space, float64."""
@@ -248,16 +280,46 @@ class Mesh:
         return apply_points(m, self.positions), n
 
 
+# Mesh formats that are text: bytes that are not UTF-8 make trimesh guess an encoding
+# (and need a module it does not install), so they are refused first with a clear message.
+_TEXT_MESH_FORMATS = ("obj", "off")
+
+
+def _warn_dropped_faces(path, data, n_loaded):
+    """Warn when an OBJ's face lines give fewer triangles than there are face lines
+    (each gives at least one): a truncated or malformed file that trimesh read in part."""
+    n_lines = len(re.findall(rb"^[ \t]*f[ \t]", data, re.M))
+    if n_loaded < n_lines:
+        warnings.warn(f"{path}: {n_lines} face lines but {n_loaded} triangles loaded: "
+                      f"{n_lines - n_loaded} or more faces are malformed or truncated and were skipped",
+                      stacklevel=3)
+
+
+def _tame_normals(n):
+    """Vertex normals are directions: rows whose length is far from 1 (outside [2^-20, 2^20])
+    are scaled to unit length, so that the device's float32 dot products of them stay
+    finite; zero rows stay zero. Normals of ordinary meshes are left bit for bit."""
+    length = np.linalg.norm(n, axis=1)
+    odd = (length > 0) & ((length > 2.0 ** 20) | (length < 2.0 ** -20))
+    if odd.any():
+        n = n.copy()
+        n[odd] /= length[odd, None]
+    return n
+
+
 def _frame(z_axis, x_axis, where):
     """Orthonormal (x, y, z) from a z axis and an x direction (Gram-Schmidt)."""
-    z = _vec3(z_axis, "axis_z", where)
-    x = _vec3(x_axis, "axis_x", where)
+    z = V.vector(z_axis, 3, "axis_z", where)
+    x = V.vector(x_axis, 3, "axis_x", where)
     if np.linalg.norm(z) == 0:
-        raise SceneError(f"{where}axis_z: must not be zero, got {z_axis!r}")
+        raise SceneError(f"{where}axis_z: expected a non-zero vector, got {V.show(z_axis)}")
+    if np.linalg.norm(x) == 0:
+        raise SceneError(f"{where}axis_x: expected a non-zero vector, got {V.show(x_axis)}")
     z = z / np.linalg.norm(z)
+    x = x / np.linalg.norm(x)
     x = x - z * (x @ z)
-    if np.linalg.norm(x) <= 1e-9 * max(np.linalg.norm(_vec3(x_axis, "axis_x", where)), 1e-300):
-        raise SceneError(f"{where}axis_x: {x_axis!r} is parallel to axis_z {z_axis!r} (or zero)")
+    if np.linalg.norm(x) <= 1e-9:
+        raise SceneError(f"{where}axis_x: {V.show(x_axis)} is parallel to axis_z {V.show(z_axis)}")
     x = x / np.linalg.norm(x)
     return x, np.cross(z, x), z
 
@@ -266,10 +328,11 @@ def _similarity(transform, where):
     """(matrix, uniform scale) of a transform; analytic shapes need a uniform scale."""
     if transform is None:
         return np.eye(4), 1.0
+    V.instance(transform, Transform, "transform", where)
     m = transform.matrix(where + "transform.")
     s = np.linalg.svd(m[:3, :3], compute_uv=False)
     if not np.allclose(s, s[0], rtol=1e-9):
-        raise SceneError(f"{where}transform.scale: {transform.scale!r}: spheres and cylinders take a "
+        raise SceneError(f"{where}transform.scale: {V.show(transform.scale)}: spheres and cylinders take a "
                          "uniform scale only")
     return m, float(s[0])
 
@@ -306,9 +369,32 @@ def _placed(shape, point, where):
 
 
 def _check_material(m, where):
-    if not isinstance(m, Material):
-        raise SceneError(f"{where}material: expected a texray.Material, got {type(m).__name__}")
+    V.instance(m, Material, "material", where)
     m.validate(f"{where}material.")
+
+
+def _check_curved_displacement(shape, radius, what, where):
+    """The rules of a displaced sphere or cylinder: searched, not maxmip (no affine (u, v, h)
+    frame), and no height below the centre or axis (the shell would turn inside out)."""
+    d = shape.material.displacement
+    if d is None or d.method == "tessellate":
+        return
+    if d.method == "maxmip":
+        raise SceneError(f"{where}material.displacement.method: 'maxmip' needs (u, v, h) affine along rays: "
+                         f"planar quads only; {type(shape).__name__} {shape.name} takes 'search' or 'tessellate'")
+    hmin = d.bounds()[0]
+    if radius + hmin < 0:
+        raise SceneError(f"{where}material.displacement.offset: the lowest height {hmin:g} is below the {what} "
+                         f"of radius {radius:g}")
+
+
+def check_extent(points, where, field):
+    """SceneError unless every coordinate of the world-space ``points`` lies within
+    +-validate.COORD_LIMIT (the device computes in float32)."""
+    big = np.abs(points).max(initial=0.0)
+    if not big <= V.COORD_LIMIT:
+        raise SceneError(f"{where}{field}: coordinates up to {big:.3g} after the transform; the device "
+                         f"computes in float32 and takes |coordinates| <= {V.COORD_LIMIT:.0e}")
 
 
 @dataclass
@@ -331,8 +417,10 @@ class Sphere:
     def world(self):
         """(center, radius, x, z) in world space, float64."""
         where = f"{self.name}: "
-        r = _number(self.radius, "radius", where, 0.0, lo_open=True)
-        c, k, x, z = _placed(self, _vec3(self.center, "center", where), where)
+        r = V.number(self.radius, "radius", where, 0.0, lo_open=True, limit=V.COORD_LIMIT)
+        c, k, x, z = _placed(self, V.point(self.center, "center", where), where)
+        check_extent(np.stack([c - r * k, c + r * k]), where, "center, radius")
+        _check_curved_displacement(self, r * k, "centre of a sphere", where)
         return c, r * k, x, z
 
 
@@ -359,15 +447,17 @@ class Cylinder:
     def world(self):
         """(origin, radius, x, z, (z_min, z_max), (theta_min, theta_max) radians) in world space."""
         where = f"{self.name}: "
-        r = _number(self.radius, "radius", where, 0.0, lo_open=True)
-        zr = np.asarray(self.z_range, dtype=np.float64)
-        tr = np.asarray(self.theta_range, dtype=np.float64)
-        if zr.shape != (2,) or not np.all(np.isfinite(zr)) or not zr[0] < zr[1]:
-            raise SceneError(f"{where}z_range: expected [z_min, z_max] with z_min < z_max, got {self.z_range!r}")
-        if tr.shape != (2,) or not np.all(np.isfinite(tr)) or not tr[0] < tr[1] or tr[1] - tr[0] > 360:
-            raise SceneError(f"{where}theta_range: expected [min, max] degrees with min < max <= min + 360, "
-                             f"got {self.theta_range!r}")
-        o, k, x, z = _placed(self, _vec3(self.origin, "origin", where), where)
+        r = V.number(self.radius, "radius", where, 0.0, lo_open=True, limit=V.COORD_LIMIT)
+        zr = V.vector(self.z_range, 2, "z_range", where, limit=V.COORD_LIMIT)
+        if not zr[0] < zr[1]:
+            V.fail(where, "z_range", "[z_min, z_max] with z_min < z_max", self.z_range)
+        tr = V.vector(self.theta_range, 2, "theta_range", where, limit=V.COORD_LIMIT)
+        if not tr[0] < tr[1] or tr[1] - tr[0] > 360:
+            V.fail(where, "theta_range", "[min, max] degrees with min < max <= min + 360", self.theta_range)
+        o, k, x, z = _placed(self, V.point(self.origin, "origin", where), where)
+        ends = o + np.outer(zr * k, z)
+        check_extent(np.concatenate([ends - r * k, ends + r * k]), where, "origin, radius, z_range")
+        _check_curved_displacement(self, r * k, "axis of a cylinder", where)
         return o, r * k, x, z, tuple(zr * k), tuple(np.radians(tr))
 
 
@@ -392,17 +482,28 @@ class Quad:
     def world(self):
         """((4, 3) corners, (4, 2) uvs) in world space, float64."""
         where = f"{self.name}: "
-        p = np.stack([_vec3(v, f"p{i}", where) for i, v in enumerate((self.p0, self.p1, self.p2, self.p3))])
-        uv = np.asarray(self.uvs, dtype=np.float64)
-        if uv.shape != (4, 2) or not np.all(np.isfinite(uv)):
-            raise SceneError(f"{where}uvs: expected 4 finite (u, v) pairs, got {self.uvs!r}")
+        p = np.stack([V.point(v, f"p{i}", where) for i, v in enumerate((self.p0, self.p1, self.p2, self.p3))])
+        uv = V.array(self.uvs, "uvs", where, 2)
+        if uv.shape != (4, 2) or not np.all(np.abs(uv) <= V.FLT_MAX):
+            V.fail(where, "uvs", "4 (u, v) pairs of numbers finite in float32", self.uvs)
         if self.transform is not None:
             p = apply_points(self.transform.matrix(where + "transform."), p)
+        check_extent(p, where, "p0..p3")
         area = np.linalg.norm(np.cross(p[1] - p[0], p[3] - p[0])) + np.linalg.norm(np.cross(p[2] - p[1], p[3] - p[2]))
         if area == 0:
             raise SceneError(f"{where}p0..p3: the quad has zero area: {p.tolist()}")
         _check_material(self.material, where)
         _check_mapping(self.mapping, where)
+        d = self.material.displacement
+        if d is not None and d.method != "tessellate":
+            e0, e1 = p[1] - p[0], p[3] - p[0]
+            size = max(np.abs(p).max(), np.linalg.norm(e0), np.linalg.norm(e1))
+            # A parallelogram to float32 precision (2^-20 of its size): (u, v, h) are then
+            # affine along a ray, which the search and the maxmip traversal rely on.
+            if np.linalg.norm(p[0] + p[2] - p[1] - p[3]) > 2.0 ** -20 * size:
+                raise SceneError(f"{where}material.displacement.method: {d.method!r} displaces planar "
+                                 f"parallelogram quads only (p0 + p2 = p1 + p3); this quad's corners are "
+                                 f"{V.show(p)}: use method = \"tessellate\"")
         return p, uv
 
 
@@ -448,9 +549,29 @@ class Scene:
     background: tuple = (0.0, 0.0, 0.0)
     objects: list = field(default_factory=list)
 
+    def __post_init__(self):
+        for name in ("lights", "objects"):
+            value = getattr(self, name)
+            if not isinstance(value, (list, tuple)):
+                raise SceneError(f"scene.{name}: expected a list, got {V.show(value)}")
+            setattr(self, name, list(value))
+        self.validate()
+
+    def validate(self):
+        """Check every field (the lists may have changed since the scene was made); returns
+        (ambient, background) as float64 arrays."""
+        V.instance(self.camera, Camera, "camera", "scene.")
+        self.camera.basis(1.0)
+        for name, kinds, what in (("lights", PointLight, "a texray.PointLight"), ("objects", SHAPES, _SHAPE_NAMES)):
+            value = getattr(self, name)
+            if not isinstance(value, list):
+                raise SceneError(f"scene.{name}: expected a list, got {V.show(value)}")
+            for i, item in enumerate(value):
+                V.instance(item, kinds, f"{name}[{i}]", "scene.", what)
+        return V.rgb(self.ambient, "ambient", "scene."), V.rgb(self.background, "background", "scene.")
+
     def add(self, obj):
-        if not isinstance(obj, (Mesh, Sphere, Cylinder, Quad)):
-            raise SceneError(f"scene.add: expected a texray Mesh, Sphere, Cylinder or Quad, got {type(obj).__name__}")
+        V.instance(obj, SHAPES, "add", "scene.", _SHAPE_NAMES)
         self.objects.append(obj)
         return obj
 
@@ -459,6 +580,10 @@ class Scene:
         """Read a TOML scene file (see the README's "Scene files")."""
         from .scenefile import load_scene
         return load_scene(path)
+
+
+SHAPES = (Mesh, Sphere, Cylinder, Quad)
+_SHAPE_NAMES = "a texray Mesh, Sphere, Cylinder or Quad"
 
 
 def degenerate_faces(positions, faces):

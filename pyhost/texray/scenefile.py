@@ -18,6 +18,7 @@ except ModuleNotFoundError:        # Python < 3.11
 from .bump import Bump, NormalMap
 from .displace import Displacement
 from .errors import SceneError
+from . import validate as V
 from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sphere, Texture
 from .texture import DEFAULT_MAX_ANISO, Label
 from .mapping import WRAP_MODES, Projection, UVTransform
@@ -84,9 +85,7 @@ def _check_table(table, kind, where):
 
 def load_scene(path) -> Scene:
     """Parse a scene file into a :class:`Scene`; ``scene.render_settings`` holds its [render] table."""
-    path = Path(path)
-    if not path.is_file():
-        raise SceneError(f"scene file not found: {path}")
+    path = V.file_path(path, "scene")
     try:
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
@@ -107,13 +106,12 @@ def _build(doc, base, path):
     _check_table(sc, "scene", "scene")
     settings = doc.get("render", {})
     _check_table(settings, "render", "render")
+    V.render_settings(**({"width": 1, "height": 1, "spp": 1, "seed": 0} | settings), where="render.")
 
     lights = []
     for i, lt in enumerate(doc.get("lights", [])):
         _check_table(lt, "lights", f"lights[{i}]")
-        light = PointLight(**lt)
-        light.validate(f"lights[{i}].")
-        lights.append(light)
+        lights.append(_renamed(lambda: PointLight(**lt), "light.", f"lights[{i}]."))
 
     textures = {}
     for name, tt in doc.get("textures", {}).items():
@@ -139,9 +137,7 @@ def _build(doc, base, path):
         for role, make in (("bump", Bump), ("normal_map", NormalMap), ("displacement", Displacement)):
             if role in kw:
                 kw[role] = _normal_role(make, kw[role], textures, f"{where}.{role}")
-        m = Material(**kw)
-        m.validate(where + ".")
-        materials[name] = m
+        materials[name] = _renamed(lambda: Material(**kw), "material.", where + ".")
 
     scene = Scene(camera=Camera(**cam), lights=lights, **sc)
     eye_where = "camera."
@@ -162,15 +158,14 @@ def _texture(tt, name, base, uvt):
     opts = {"filter": tt.get("filter", "bilinear"), "wrap": tt.get("wrap", "repeat"), "uv_transform": uvt,
             "max_aniso": tt.get("max_aniso", DEFAULT_MAX_ANISO)}
     if "file" in tt:
-        return Texture.load(base / tt["file"], colorspace=tt.get("colorspace", "auto"), field=f"{where}.file",
-                            **opts)
+        return Texture.load(base / tt["file"], colorspace=tt.get("colorspace", "auto"), field=where, **opts)
     if "colorspace" in tt:
         raise SceneError(f"{where}.colorspace: procedural textures know their colour space")
     params = tt.get("params", {})
     if not all(isinstance(v, (int, float, list)) and not isinstance(v, bool) for v in params.values()):
         raise SceneError(f"{where}.params: expected numbers or arrays, got {params!r}")
     params = {k: tuple(v) if isinstance(v, list) else v for k, v in params.items()}
-    return _wrap_errors(lambda: Texture.procedural(tt["procedural"], **opts, **params), f"{where}.")
+    return _renamed(lambda: Texture.procedural(tt["procedural"], **opts, **params), "texture.", f"{where}.")
 
 
 def _normal_role(make, value, textures, where):
@@ -225,8 +220,8 @@ def _object(ob, where, materials, base):
         raise SceneError(f"{where}.material: no material named {mat_name!r} "
                          f"(defined: {', '.join(materials) or 'none'})")
     material = materials.get(mat_name, Material())
-    tf = Transform(**{k: ob[k] for k in ("translate", "rotate", "scale") if k in ob})
-    tf.matrix(where + ".")
+    tf = _wrap_errors(lambda: Transform(**{k: ob[k] for k in ("translate", "rotate", "scale") if k in ob}),
+                      where + ".")
     args = {k: ob[k] for k in required + optional if k in ob}
     if "mapping" in ob:
         _check_table(ob["mapping"], "mapping", f"{where}.mapping")
@@ -284,6 +279,16 @@ def _procedural_mesh(generator, params, where, material, tf, mapping):
         raise SceneError(f"{where}.params: {generator}({params}): {e}") from None
     return Mesh(m.positions, m.faces, m.uvs, m.normals, material=material, transform=tf,
                 name=f"{where} ({generator})", mapping=mapping)
+
+
+def _renamed(make, own, where):
+    """make(), with a SceneError's own prefix (``"light."``) replaced by the field's place in
+    the file (``"lights[2]."``)."""
+    try:
+        return make()
+    except SceneError as e:
+        msg = str(e)
+        raise SceneError(where + msg[len(own):] if msg.startswith(own) else f"{where}{msg}") from None
 
 
 def _wrap_errors(make, where):

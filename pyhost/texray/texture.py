@@ -32,6 +32,7 @@ import numpy as np
 
 from .colour import srgb_to_linear
 from .errors import SceneError
+from . import validate as V
 
 FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}   # layout FILTER_* / TextureInfo.filter
 MIP_FILTERS = ("trilinear", "anisotropic")       # the filters that read MIP levels
@@ -119,9 +120,10 @@ class Texture:
         ("checker", "bricks", "bricks_height", "noise", "wood", "marble", "tiles", "globe",
         "label"); ``params`` go to the generator (``size``, ``seed``...). Colours are
         sRGB-encoded display values, heights and noise linear data."""
-        if kind not in PROCEDURAL:
-            raise SceneError(f"texture.procedural: expected one of {', '.join(PROCEDURAL)}, got {kind!r}")
+        V.one_of(kind, tuple(PROCEDURAL), "procedural", "texture.")
         make, colorspace = PROCEDURAL[kind]
+        from .procedural import check_texture_params
+        check_texture_params(make, params, f"texture.procedural: {kind}: ")
         try:
             pixels = make(**params)
         except TypeError as e:
@@ -187,19 +189,32 @@ class _Pixels:
 
 
 def _check_pixels(array, name, field):
+    if isinstance(array, (str, bytes)) or array is None:
+        raise SceneError(f"{field}: {name}: expected an array of numbers, got {V.show(array)}")
     try:
-        a = np.asarray(array, dtype=np.float32)
+        a = np.asarray(array)
+        if a.dtype == object:
+            a = np.asarray(array, dtype=np.float64)
     except (TypeError, ValueError):
-        raise SceneError(f"{field}: {name}: expected an array of numbers, got {type(array).__name__}") from None
+        raise SceneError(f"{field}: {name}: expected an array of numbers (equal-length rows), got "
+                         f"{type(array).__name__}") from None
+    if a.dtype.kind not in "iuf":
+        raise SceneError(f"{field}: {name}: expected an array of numbers, got an array of {a.dtype}")
     if a.ndim == 2:
         a = a[:, :, None]
     if a.ndim != 3 or a.shape[2] not in (1, 2, 3, 4) or a.shape[0] < 1 or a.shape[1] < 1:
         raise SceneError(f"{field}: {name}: expected an (H, W) or (H, W, 1..4) image, got shape {np.shape(array)}")
-    if not np.all(np.isfinite(a)):
-        bad = np.argwhere(~np.isfinite(a))[0]
-        raise SceneError(f"{field}: {name}: non-finite texel {a[tuple(bad)]} at row {bad[0]}, column {bad[1]}, "
-                         f"channel {bad[2]}")
-    return np.ascontiguousarray(a)
+    wide = a.astype(np.float64)
+    if not np.all(np.isfinite(wide)):
+        bad = np.argwhere(~np.isfinite(wide))[0]
+        raise SceneError(f"{field}: {name}: non-finite texel {V.show(wide[tuple(bad)])} at row {bad[0]}, "
+                         f"column {bad[1]}, channel {bad[2]}")
+    if np.abs(wide).max() > HALF_MAX:
+        bad = np.argwhere(np.abs(wide) > HALF_MAX)[0]
+        raise SceneError(f"{field}: {name}: texel {V.show(wide[tuple(bad)])} at row {bad[0]}, column {bad[1]}, "
+                         f"channel {bad[2]} is beyond {HALF_MAX:g}, the largest half float (texels are stored "
+                         "as half floats on the device)")
+    return np.ascontiguousarray(a, dtype=np.float32)
 
 
 def role_rgba(raw, colorspace, kind):
@@ -269,9 +284,8 @@ def _read(path, field):
     """(raw float32 (H, W, C) with straight alpha, the file's colour-space name, whether the
     pixels are half/float)."""
     import OpenImageIO as oiio
-    path = Path(path)
-    if not path.is_file():
-        raise SceneError(f"{field}: file not found: {path}")
+    field = f"{field}.file"
+    path = V.file_path(path, "", field)
     config = oiio.ImageSpec()
     config.attribute("oiio:UnassociatedAlpha", 1)       # the file's own colour values, not premultiplied
     inp = oiio.ImageInput.open(str(path), config)

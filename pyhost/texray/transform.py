@@ -6,21 +6,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import SceneError
+from .validate import COORD_LIMIT, FLT_MAX, show, vector
 
 
-def _vec3(value, field, where="", positive=False):
-    try:
-        v = np.asarray(value, dtype=np.float64)
-        if v.ndim == 0:
-            v = np.full(3, float(v))
-    except (TypeError, ValueError):
-        raise SceneError(f"{where}{field}: expected a number or 3 numbers, got {value!r}") from None
-    if v.shape != (3,):
-        raise SceneError(f"{where}{field}: expected 3 numbers, got {value!r}")
-    if not np.all(np.isfinite(v)):
-        raise SceneError(f"{where}{field}: values must be finite, got {value!r}")
+def _vec3(value, field, where="", positive=False, limit=FLT_MAX):
+    """A number or 3 numbers as a float64 (3,) array (texray.validate.vector); ``positive``:
+    none may be zero (a scale)."""
+    v = vector(value, 3, field, where, broadcast=True, limit=limit)
     if positive and np.any(v == 0):
-        raise SceneError(f"{where}{field}: a scale of zero flattens the object, got {value!r}")
+        raise SceneError(f"{where}{field}: a scale of zero flattens the object, got {show(value)}")
     return v
 
 
@@ -31,11 +25,14 @@ class Transform:
     rotate: tuple = (0.0, 0.0, 0.0)
     scale: object = 1.0
 
+    def __post_init__(self):
+        self.matrix()
+
     def matrix(self, where="") -> np.ndarray:
         """The 4x4 float64 matrix acting on column vectors."""
-        t = _vec3(self.translate, "translate", where)
+        t = _vec3(self.translate, "translate", where, limit=COORD_LIMIT)
         r = np.radians(_vec3(self.rotate, "rotate", where))
-        s = _vec3(self.scale, "scale", where, positive=True)
+        s = _vec3(self.scale, "scale", where, positive=True, limit=COORD_LIMIT)
         cx, cy, cz = np.cos(r)
         sx, sy, sz = np.sin(r)
         rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
