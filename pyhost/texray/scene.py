@@ -54,8 +54,9 @@ class Camera:
         if np.linalg.norm(fwd) == 0:
             raise SceneError(f"{where}look_at: equals eye {V.show(eye)}; the camera has no direction")
         fwd /= np.linalg.norm(fwd)
-        if np.linalg.norm(up) == 0:
+        if not np.any(up != 0):
             raise SceneError(f"{where}up: expected a non-zero vector, got {V.show(self.up)}")
+        up = up / np.abs(up).max()          # scaled first: the norm of (0, 1e-300, 0) underflows
         right = np.cross(fwd, up / np.linalg.norm(up))
         if np.linalg.norm(right) < _MIN_UP_SINE:
             raise SceneError(f"{where}up: {V.show(self.up)} is parallel to the viewing direction "
@@ -209,6 +210,9 @@ class Mesh:
                                  f"byte {data[e.start]:#04x} at offset {e.start})") from None
         try:
             loaded = trimesh.load(str(path), process=False)
+        except IndexError as e:  # trimesh's parsers index vertex arrays with the file's face indices
+            raise SceneError(f"mesh: cannot read {path}: a face refers to a vertex (or uv, normal) the file does "
+                             f"not define ({e})") from None
         except Exception as e:   # trimesh raises many kinds of errors for unreadable files
             raise SceneError(f"mesh: cannot read {path}: {type(e).__name__}: {e}") from None
         try:
