@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import SceneError
+from . import validate as V
 
 WRAP_MODES = {"repeat": 0, "clamp": 1, "mirror": 2}           # kernels/wrap.h TX_WRAP_*
 PROJECTION_KINDS = {"planar": 0, "cylindrical": 1, "spherical": 2}   # kernels/mapping.h TX_MAP_*
@@ -45,31 +46,13 @@ ROTATION_PIVOT = (0.5, 0.5)
 _PARALLEL_TOL = 1e-6     # |x - (x.z) z| / |x| below this: x_axis is parallel to z_axis
 
 
-def _vector(value, n, field, *, nonzero=False):
-    """``value`` as a tuple of ``n`` finite floats, or SceneError naming ``field``."""
-    try:
-        a = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise SceneError(f"{field}: expected {n} numbers, got {value!r}") from None
-    if a.shape != (n,):
-        raise SceneError(f"{field}: expected {n} numbers, got {value!r}")
-    if not np.all(np.isfinite(a)):
-        raise SceneError(f"{field}: must be finite, got {tuple(a.tolist())}")
-    if nonzero and np.any(a == 0):
-        raise SceneError(f"{field}: must be non-zero, got {tuple(a.tolist())}")
-    return tuple(float(x) for x in a)
+def _vector(value, n, field, *, nonzero=False, limit=V.FLT_MAX):
+    """``value`` as a tuple of ``n`` finite floats, or SceneError naming ``field`` (texray.validate)."""
+    return tuple(float(x) for x in V.vector(value, n, field, nonzero=nonzero, limit=limit))
 
 
-def _scalar(value, field):
-    if isinstance(value, bool):
-        raise SceneError(f"{field}: expected a number, got {value!r}")
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise SceneError(f"{field}: expected a number, got {value!r}") from None
-    if not math.isfinite(x):
-        raise SceneError(f"{field}: must be finite, got {x}")
-    return x
+def _scalar(value, field, **kw):
+    return V.number(value, field, **kw)
 
 
 def _cos_sin_degrees(deg):
@@ -144,23 +127,22 @@ class Projection:
 
     def validate(self):
         """Normalize the fields; SceneError naming the field if one is bad."""
-        if not isinstance(self.kind, str) or self.kind not in PROJECTION_KINDS:
-            raise SceneError(f"projection.kind: expected one of {', '.join(PROJECTION_KINDS)}, got {self.kind!r}")
-        self.origin = _vector(self.origin, 3, "projection.origin")
+        V.one_of(self.kind, tuple(PROJECTION_KINDS), "projection.kind")
+        self.origin = _vector(self.origin, 3, "projection.origin", limit=V.COORD_LIMIT)
         self.x_axis = _vector(self.x_axis, 3, "projection.x_axis")
         self.z_axis = _vector(self.z_axis, 3, "projection.z_axis")
-        self.scale = _scalar(self.scale, "projection.scale")
-        if not self.scale > 0:
-            raise SceneError(f"projection.scale: must be > 0, got {self.scale}")
+        self.scale = _scalar(self.scale, "projection.scale", lo=0.0, lo_open=True, limit=V.COORD_LIMIT)
         self._axes()
 
     def _axes(self):
         z = np.array(self.z_axis)
+        z = z / max(np.abs(z).max(), 1e-300)          # scaled first: tiny vectors' norms underflow
         nz = np.linalg.norm(z)
         if not nz > 0 or not np.isfinite(nz):
             raise SceneError(f"projection.z_axis: must be a non-zero vector, got {self.z_axis}")
         z = z / nz
         x = np.array(self.x_axis)
+        x = x / max(np.abs(x).max(), 1e-300)
         nx = np.linalg.norm(x)
         if not nx > 0 or not np.isfinite(nx):
             raise SceneError(f"projection.x_axis: must be a non-zero vector, got {self.x_axis}")

@@ -69,10 +69,10 @@ class Texture:
         from .mapping import WRAP_MODES, UVTransform
         self.name = name
         self.field = field
-        if colorspace not in ("srgb", "linear"):
-            raise SceneError(f"{field}.colorspace: {name}: expected 'srgb' or 'linear', got {colorspace!r}")
-        if wrap not in WRAP_MODES:
-            raise SceneError(f"{field}.wrap: {name}: expected one of {', '.join(WRAP_MODES)}, got {wrap!r}")
+        if not isinstance(name, str):
+            raise SceneError(f"{field}: name: expected a string, got {V.show(name)}")
+        V.one_of(colorspace, ("srgb", "linear"), "colorspace", f"{field}.")
+        V.one_of(wrap, tuple(WRAP_MODES), "wrap", f"{field}.")
         if not isinstance(filter, str) or filter not in FILTERS:
             raise SceneError(f"{field}.filter: {name}: expected one of {', '.join(FILTERS)}, got {filter!r}")
         if uv_transform is not None and not isinstance(uv_transform, UVTransform):
@@ -99,8 +99,7 @@ class Texture:
         linear names), else integer pixels are sRGB and half/float pixels linear. An
         unreadable, truncated or empty file, an unknown colour space or non-finite texels
         raise SceneError naming the file."""
-        if colorspace not in COLORSPACES:
-            raise SceneError(f"{field}.colorspace: expected one of {', '.join(COLORSPACES)}, got {colorspace!r}")
+        V.one_of(colorspace, COLORSPACES, "colorspace", f"{field}.")
         pixels, file_cs, is_float = _read(path, field)
         if colorspace == "auto":
             colorspace = _auto_colorspace(file_cs, is_float, path, field)
