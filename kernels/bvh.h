@@ -54,8 +54,10 @@ typedef struct { float t, b1, b2; uint prim; } HitRec;
  * for a miss. The near and far planes are chosen per axis by the direction's
  * sign (neg), so the empty box (lo = +inf, hi = -inf) of an unused lane gives
  * near = +inf and always misses; the far distance is scaled by 1 + 2 gamma(3)
- * (Ize 2013). inv_d comes from safe_inverse, so no NaN arises from finite
- * bounds. A ray with a zero direction component (par) re-tests its missed
+ * (Ize 2013). For a ray that passes ray_valid (common.h) -- the callers check --
+ * org is finite and inv_d (safe_inverse) finite and nonzero, so no distance is
+ * NaN, not even for the empty boxes; the lane test tn <= tf is false for NaN
+ * anyway. A ray with a zero direction component (par) re-tests its missed
  * lanes exactly, so the common case pays one branch. */
 inline float4 box4_entry(__global const float4* nd, float3 org, float3 inv_d, int nx, int ny, int nz,
                          float tmin, float tmax, int par)
@@ -85,7 +87,8 @@ inline float4 box4_entry(__global const float4* nd, float3 org, float3 inv_d, in
 /* The leaf's primitives against the ray with t in (tmin, h->t): a hit nearer
  * than h->t updates h. With `any` (a compile-time constant at every call) the
  * first hit returns 1 at once; otherwise every primitive is tested and the
- * return value is 0. */
+ * return value is 0. Each loop runs at most LEAF_COUNT_MASK times (none if
+ * first + count wraps). */
 inline int leaf_hit(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, float tmin,
                     uint first, uint ck, int any, HitRec* h)
 {
@@ -145,14 +148,26 @@ inline int leaf_hit(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, fl
 #define TX_SORT2(i, j) do { if (t[j] < t[i]) { float tt_ = t[i]; t[i] = t[j]; t[j] = tt_; \
     uint c_ = c[i]; c[i] = c[j]; c[j] = c_; c_ = k[i]; k[i] = k[j]; k[j] = c_; } } while (0)
 
-/* Closest hit of the ray (org, dir) with t in (tmin, tmax). prim = TX_MISS on a miss.
+/* Closest hit of the ray (org, dir) with t in (tmin, tmax). prim = TX_MISS on a miss,
+ * and for any ray that fails ray_valid (common.h: NaN or infinite components, a zero
+ * direction, a NaN or empty interval), before any node is read.
  * The stack holds lanes (child, count_kind) with their entry distance; a lane
  * farther than the closest hit so far is skipped when popped. At most three
- * lanes are pushed per wide level: TX_STACK_SIZE >= 3 x the tree's depth. */
+ * lanes are pushed per wide level: TX_STACK_SIZE >= 3 x the tree's depth + 1
+ * (texray.wide.stack_depth, features.stack_size_for), so a push never finds the
+ * stack full in a tree the host built; should one (a tree deeper than the program
+ * was compiled for), the lane is dropped -- that subtree is not searched, which can
+ * miss a hit but never writes past the stack. Bound: a lane is only entered through
+ * its parent's entered box, so in a tree every wide node is entered at most once per
+ * ray and the loop runs at most 4 x nnodes + 1 times (nodes and leaf lanes). The
+ * kernel does not rely on that: it enters at most nnodes wide nodes, each with an
+ * index below nnodes, and returns what it found so far otherwise -- an out-of-range
+ * child or a cycle in a corrupt node array ends the traversal instead of reading past
+ * the array or running forever (two integer tests per node, within the timing noise). */
 inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
 {
     HitRec h = { tmax, 0.0f, 0.0f, TX_MISS };
-    if (nnodes == 0u) return h;
+    if (nnodes == 0u || !ray_valid(org, dir, tmin, tmax)) return h;
     WoopRay w = woop_setup(org, dir);
     float3 inv_d = (float3)(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z));
     int par = fabs(inv_d.x) >= TX_PARALLEL_INV || fabs(inv_d.y) >= TX_PARALLEL_INV || fabs(inv_d.z) >= TX_PARALLEL_INV;
@@ -160,21 +175,23 @@ inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, fl
     uint stack[TX_STACK_SIZE], stack_ck[TX_STACK_SIZE];
     float stack_t[TX_STACK_SIZE];
     int sp = 0;
-    uint node = 0u, ck = 0u;
+    uint node = 0u, ck = 0u, budget = nnodes;   /* wide nodes left to enter: see above */
     for (;;) {
         if (ck != 0u) {
             leaf_hit(TX_GEOM_ARGS, &w, org, dir, tmin, node, ck, 0, &h);
         } else {
+            if (node >= nnodes || budget-- == 0u) return h;   /* only in a broken tree: see above */
             __global const float4* nd = nodes + 8u * node;
             float4 e = box4_entry(nd, org, inv_d, nx, ny, nz, tmin, h.t, par);
             uint4 ch = as_uint4(nd[6]), kk = as_uint4(nd[7]);
             float t[4] = { e.x, e.y, e.z, e.w };
             uint c[4] = { ch.x, ch.y, ch.z, ch.w }, k[4] = { kk.x, kk.y, kk.z, kk.w };
-            /* Sort the four lanes by entry distance (misses, at INFINITY, last). */
+            /* Sort the four lanes by entry distance (misses, at INFINITY, last). A lane
+             * counts as entered only when t < INFINITY, which NaN fails too. */
             TX_SORT2(0, 1); TX_SORT2(2, 3); TX_SORT2(0, 2); TX_SORT2(1, 3); TX_SORT2(1, 2);
-            if (t[0] != INFINITY) {
+            if (t[0] < INFINITY) {
                 for (int i = 3; i > 0; --i) {
-                    if (t[i] != INFINITY) {
+                    if (t[i] < INFINITY && sp < TX_STACK_SIZE) {   /* full: dropped (above) */
                         stack[sp] = c[i]; stack_ck[sp] = k[i]; stack_t[sp] = t[i]; ++sp;
                     }
                 }
@@ -194,10 +211,15 @@ inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, fl
 #undef TX_SORT2
 
 /* 1 if anything is hit with t in (tmin, tmax). Leaf lanes are tested as soon
- * as their box is entered, interior lanes pushed. */
+ * as their box is entered, interior lanes pushed. 0 for a ray that fails ray_valid
+ * (common.h), before any node is read. Up to four lanes are pushed per node and one
+ * popped at once: TX_STACK_SIZE >= 3 x depth + 1 holds them; a push that finds the
+ * stack full is dropped (as in bvh_closest: only a tree deeper than the program's
+ * bound, where it can miss a hit). Bound: every wide node entered at most once, at
+ * most nnodes iterations, enforced as in bvh_closest (0 for a corrupt tree). */
 inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
 {
-    if (nnodes == 0u) return 0;
+    if (nnodes == 0u || !ray_valid(org, dir, tmin, tmax)) return 0;
     HitRec h = { tmax, 0.0f, 0.0f, TX_MISS };
     WoopRay w = woop_setup(org, dir);
     float3 inv_d = (float3)(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z));
@@ -205,18 +227,19 @@ inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tma
     int nx = inv_d.x < 0.0f, ny = inv_d.y < 0.0f, nz = inv_d.z < 0.0f;
     uint stack[TX_STACK_SIZE];
     int sp = 0;
-    uint node = 0u;
+    uint node = 0u, budget = nnodes;            /* wide nodes left to enter: see above */
     for (;;) {
+        if (node >= nnodes || budget-- == 0u) return 0;       /* only in a broken tree: see above */
         __global const float4* nd = nodes + 8u * node;
         float4 e = box4_entry(nd, org, inv_d, nx, ny, nz, tmin, tmax, par);
         uint4 ch = as_uint4(nd[6]), kk = as_uint4(nd[7]);
         float t[4] = { e.x, e.y, e.z, e.w };
         uint c[4] = { ch.x, ch.y, ch.z, ch.w }, k[4] = { kk.x, kk.y, kk.z, kk.w };
         for (int i = 0; i < 4; ++i) {
-            if (t[i] == INFINITY) continue;
+            if (!(t[i] < INFINITY)) continue;          /* missed (NaN fails too) */
             if (k[i] != 0u) {
                 if (leaf_hit(TX_GEOM_ARGS, &w, org, dir, tmin, c[i], k[i], 1, &h)) return 1;
-            } else {
+            } else if (sp < TX_STACK_SIZE) {           /* full: dropped (above) */
                 stack[sp++] = c[i];
             }
         }

@@ -22,10 +22,27 @@ inline float3 cross3(float3 a, float3 b)
 {
     return (float3)(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
+/* v / |v|. Where |v|^2 is a normal, finite float this is v * rsqrt(|v|^2), bit for bit
+ * as ever. Where it is not -- |v| above 2^64 (|v|^2 overflows: v * rsqrt(inf) = 0, or NaN
+ * with an infinite component) or below 2^-63 (|v|^2 underflows: rsqrt(0) = inf) -- v is
+ * first divided by its largest component, which is exact in direction. A zero or
+ * non-finite v is returned as it is (the old result for zero; callers that can meet a
+ * non-finite vector check it). */
 inline float3 normalize3(float3 v)
 {
     float l2 = dot3(v, v);
-    return l2 > 0.0f ? v * rsqrt(l2) : v;
+    if (l2 >= FLT_MIN && l2 <= FLT_MAX) return v * rsqrt(l2);
+    float m = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
+    m = m > fabs(v.z) ? m : fabs(v.z);
+    if (!(m > 0.0f && m <= FLT_MAX)) return v;
+    v = v / m;                         /* not v * (1 / m): 1 / m overflows for tiny denormal m */
+    return v * rsqrt(dot3(v, v));
+}
+
+/* Whether every component of v is finite (false for NaN). */
+inline int finite3(float3 v)
+{
+    return fabs(v.x) <= FLT_MAX && fabs(v.y) <= FLT_MAX && fabs(v.z) <= FLT_MAX;
 }
 inline float3 abs3(float3 v) { return (float3)(fabs(v.x), fabs(v.y), fabs(v.z)); }
 
@@ -40,6 +57,32 @@ inline float3 unit3(int k) { return (float3)(k == 0, k == 1, k == 2); }
 inline float safe_inverse(float x)
 {
     return fabs(x) < 7.888609e-31f ? copysign(TX_PARALLEL_INV, x) : 1.0f / x;
+}
+
+/* Whether the ray org + t dir, t in (tmin, tmax), can be traced at all. Every traversal
+ * entry (bvh.h) answers a miss for any other ray before it reads a node. Written so that
+ * NaN fails every test. Required:
+ * - org and dir finite: an infinite or NaN component makes the slab tests NaN, and the
+ *   ternary min/max (TX_MIN/TX_MAX) drop a NaN operand, so an unused lane's empty box
+ *   (lo = +inf, hi = -inf) would count as entered and its child index (0: the root) be
+ *   pushed again, without end;
+ * - some component of dir at least 2^-100 (7.9e-31): safe_inverse treats a smaller one
+ *   as zero, so a direction with all three below it is the zero vector for all
+ *   purposes (zero and denormal-length directions);
+ * - every component of dir at most 2^126 (8.5e37): the reciprocal of a larger one is a
+ *   denormal, which a device that flushes denormals makes 0, and 0 x inf is NaN again
+ *   (the bound keeps results the same on every device). A shadow ray that long comes
+ *   from a light farther than 2^126, whose I / d^2 < FLT_MAX / 2^252 = 2^-124 is nil;
+ * - tmin < tmax: a NaN or empty interval holds no hit (tmin = -inf, tmax = +inf are fine).
+ * For such a ray every slab distance (b - org) / dir is a number or +-inf, never NaN:
+ * b - org is finite or +-inf, 1/dir finite and nonzero. */
+#define TX_DIR_MIN 7.888609e-31f        /* 2^-100: safe_inverse's threshold */
+#define TX_DIR_MAX 8.507059e+37f        /* 2^126 */
+inline int ray_valid(float3 org, float3 dir, float tmin, float tmax)
+{
+    float3 ad = abs3(dir);
+    return finite3(org) && ad.x <= TX_DIR_MAX && ad.y <= TX_DIR_MAX && ad.z <= TX_DIR_MAX
+        && (ad.x >= TX_DIR_MIN || ad.y >= TX_DIR_MIN || ad.z >= TX_DIR_MIN) && tmin < tmax;
 }
 
 /* Move a point off a surface along n by `offset` (pbrt-v4 OffsetRayOrigin):

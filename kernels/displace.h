@@ -38,6 +38,10 @@
 #include "wrap.h"
 
 #define TX_DISP_MAX_LEVELS 32
+/* texray.displace.MAX_STEPS, MAX_REFINE: the host's limits on steps and refine, applied
+ * again here so that the search's loops stay bounded whatever the table says. */
+#define TX_DISP_MAX_STEPS 4096u
+#define TX_DISP_MAX_REFINE 32u
 
 typedef struct {
     float3 q0, dir;         /* ray origin relative to Displaced.p, direction */
@@ -195,7 +199,8 @@ inline int disp_clip(const DispFrame* f, float tmin, float tmax, float* A, float
 /* The lecture's search on [A, B] (header comment). Samples where the primitive has
  * no surface (outside the (u, v) domain, e.g. [A, B]'s ends rounded just past the
  * quad's edge, or a partial cylinder's gap) are skipped: they neither start nor end
- * a bracket. */
+ * a bracket. Bound: steps + 1 samples (steps <= 8 TX_DISP_MAX_STEPS, the caller
+ * clamps it) and one refinement of `refine` (<= TX_DISP_MAX_REFINE) bisections. */
 inline int disp_search(__global const ushort* hts, const DispFrame* f, float A, float B, uint steps, uint refine,
                        int any, int from_outside, float* t_hit, float2* uv_hit)
 {
@@ -268,6 +273,7 @@ inline int disp_maxmip(__global const ushort* hts, __global const Displaced* d, 
                        int any, int from_outside, float* t_hit, float2* uv_hit)
 {
     int levels = TX_MIN((int)d->levels, TX_DISP_MAX_LEVELS);
+    if (levels < 1 || f->w < 1 || f->h < 1) return 0;     /* no pyramid: nothing to index */
     uint off[TX_DISP_MAX_LEVELS];
     int cw[TX_DISP_MAX_LEVELS], ch[TX_DISP_MAX_LEVELS];
     off[0] = d->moff; cw[0] = f->w + 1; ch[0] = f->h + 1;
@@ -286,8 +292,10 @@ inline int disp_maxmip(__global const ushort* hts, __global const Displaced* d, 
     /* Each level-0 cell the ray crosses is entered once, with at most one ascent and
      * `levels` descents per step: a bound that only a broken input can reach. Cells
      * only ever advance along the ray (a descent picks a child of the current cell,
-     * an ascent the parent of the next), so the loop ends. */
-    int cap = (f->w + f->h + 4) * (2 * levels + 2) + 64;
+     * an ascent the parent of the next), so the loop ends; whatever the input (NaN
+     * distances included) it runs at most cap times. w and h are capped at 2^20 for
+     * cap alone (no int overflow; a larger map gets a smaller cap, so at worst a miss). */
+    int cap = (TX_MIN(f->w, 1 << 20) + TX_MIN(f->h, 1 << 20) + 4) * (2 * levels + 2) + 64;
     for (int it = 0; it < cap; ++it) {
         float size = (float)(1 << L);
         float bx = (float)(sx > 0 ? cx + 1 : cx) * size, by = (float)(sy > 0 ? cy + 1 : cy) * size;
@@ -353,7 +361,7 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
     if ((method & 3u) == DISP_MAXMIP && f.shape == DISP_QUAD) {
         hit = disp_maxmip(hts, d, &f, A, B, any, from_outside, t, uv);
     } else {
-        uint steps = TX_MAX(d->steps, 1u);
+        uint steps = clamp(d->steps, 1u, TX_DISP_MAX_STEPS);
         if (method & DISP_ADAPTIVE) {
             float3 qa = f.q0 + A * dir;
             float3 nrm = f.shape == DISP_QUAD ? f.n
@@ -361,7 +369,7 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
             float cosv = fabs(dot3(nrm, dir)) * rsqrt(dot3(nrm, nrm) * dot3(dir, dir));
             steps = (uint)ceil((float)steps / TX_MAX(cosv, 0.125f));   /* NaN cos -> 8 N */
         }
-        hit = disp_search(hts, &f, A, B, steps, d->refine, any, from_outside, t, uv);
+        hit = disp_search(hts, &f, A, B, steps, TX_MIN(d->refine, TX_DISP_MAX_REFINE), any, from_outside, t, uv);
     }
     return hit && *t > tmin && *t < tmax;
 }

@@ -35,7 +35,7 @@ __kernel void render_fused(__global float4* accum, uint n, uint y0, uint sample0
                     c += light_term(&s, v, lpos, vload3(0, lights[i].intensity));
             }
         }
-        sum += c;
+        sum += clamp_radiance(c);
     }
     accum[gid] += (float4)(sum, (float)nsamples);
 }

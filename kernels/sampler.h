@@ -7,11 +7,18 @@
 #ifndef TEXRAY_SAMPLER_H
 #define TEXRAY_SAMPLER_H
 
+/* Kensler's permute: a bijection of [0, w] (w + 1 the power of two >= l), applied
+ * until the value lands in [0, l) (cycle walking). Bound: from i < l the walk stays on
+ * i's cycle, which holds a value below l, so it ends within w + 1 - l + 1 <= l steps
+ * (w < 2 l); from i >= l (a sample index past the count) a cycle might hold none, so
+ * the walk stops after w + 1 steps whatever happens, and the % l keeps the result in
+ * range. l <= 1 has the single value 0 (l = 0 would divide by zero). */
 inline uint cmj_permute(uint i, uint l, uint p)
 {
+    if (l <= 1u) return 0u;
     uint w = l - 1u;
     w |= w >> 1; w |= w >> 2; w |= w >> 4; w |= w >> 8; w |= w >> 16;
-    do {
+    for (uint walk = 0u; walk <= w; ++walk) {
         i ^= p;             i *= 0xe170893du;
         i ^= p >> 16;       i ^= (i & w) >> 4;
         i ^= p >> 8;        i *= 0x0929eb3fu;
@@ -21,7 +28,8 @@ inline uint cmj_permute(uint i, uint l, uint p)
         i ^= (i & w) >> 2;  i *= 0x9e501cc3u;
         i ^= (i & w) >> 2;  i *= 0xc860a3dfu;
         i &= w;             i ^= i >> 5;
-    } while (i >= l);
+        if (i < l) break;
+    }
     return (i + p) % l;
 }
 
@@ -42,12 +50,18 @@ inline float cmj_randfloat(uint i, uint p)
  * the last row empty when m n > N (N = 32: 5 x 7 = 35), so part of every pixel
  * is never sampled and the estimate is biased (the bench's spp sweep showed 32
  * spp further from the reference than 16). A prime N gets a 1 x N grid: still
- * one sample per 1/N band in each axis, and unbiased. */
+ * one sample per 1/N band in each axis, and unbiased.
+ *
+ * Bounds: m starts at the float square root, within one of floor(sqrt N), and is
+ * capped at 65535 (65536^2 wraps to 0 in uint), so the first two loops take a step or
+ * two, and the third ends at m = 1 at the latest. N = 0 (no samples: the host never
+ * asks) gives 1, so that no caller divides by zero. */
 inline uint cmj_grid_m(uint N)
 {
-    uint m = (uint)sqrt((float)N);
-    while (m * m > N) --m;
-    while ((m + 1u) * (m + 1u) <= N) ++m;
+    if (N == 0u) return 1u;
+    uint m = TX_MIN((uint)sqrt((float)N), 65535u);
+    while (m * m > N) --m;                                   /* m >= 1: 1 <= N */
+    while (m < 65535u && (m + 1u) * (m + 1u) <= N) ++m;
     while (N % m) --m;
     return m;
 }

@@ -6,22 +6,62 @@
  * (the specular term included, so no highlight appears on the unlit side). */
 
 /* Light i's term I_i / d_i^2 (kd (N.L_i) + ks (R_i.V)^n) at the surface point s seen
- * along -v (v: unit vector from the point toward the eye). */
+ * along -v (v: unit vector from the point toward the eye). The callers only pass lights
+ * that light_visible (shadow.cl) let through: finite, at a finite distance from a
+ * finite point. What remains degenerate, each written so that the usual case computes
+ * exactly what it always did:
+ * - a light whose intensity is not finite (NaN, inf) adds nothing: inf x 0 for the
+ *   unlit channels and points would be NaN;
+ * - where d^2 = |l|^2 is not a normal float (d above 2^64 or below 2^-63), l is first
+ *   divided by m, its largest component, and I / d^2 computed as (I / m / m) / |l / m|^2:
+ *   l * rsqrt(d^2) would be 0 or inf, and I / d^2 0 / 0 for a tiny scene's tiny I and
+ *   d. l = 0 (the light at the point itself, which light_visible never lets through)
+ *   adds nothing;
+ * - N.L and R.V are tested with > 0, false for NaN;
+ * - the exponent n = shininess only enters as powr(R.V, n) with R.V > 0; n >= 0 and
+ *   finite, R.V <= 1 (up to rounding) keep it in [0, 1]; a result that is NaN or inf
+ *   (NaN n, or R.V rounded above 1 with n near FLT_MAX) leaves the specular term out.
+ * The term is then finite unless I / d^2 itself exceeds the float range. */
 inline float3 light_term(const Surface* s, float3 v, float3 lpos, float3 intensity)
 {
+    if (!finite3(intensity)) return (float3)(0.0f);
     float3 p = vload3(0, s->p), nrm = vload3(0, s->ns);
     float3 l = lpos - p;
     float d2 = dot3(l, l);
+    if (!(d2 >= FLT_MIN && d2 <= FLT_MAX)) {
+        float m = TX_MAX(TX_MAX(fabs(l.x), fabs(l.y)), fabs(l.z));
+        if (!(m > 0.0f && m <= FLT_MAX)) return (float3)(0.0f);
+        l = l / m;
+        d2 = dot3(l, l);                   /* in [1, 3] */
+        intensity = intensity / m / m;     /* I / d^2 = (I / m^2) / |l / m|^2 */
+    }
     l *= rsqrt(d2);
     float ndl = dot3(nrm, l);
-    if (ndl <= 0.0f) return (float3)(0.0f);
+    if (!(ndl > 0.0f)) return (float3)(0.0f);
     float3 term = vload3(0, s->kd) * ndl;
 #if TX_SPECULAR
     float3 r = 2.0f * ndl * nrm - l;
     float rv = dot3(r, v);
-    if (rv > 0.0f) term += vload3(0, s->ks) * powr(rv, s->shininess);
+    if (rv > 0.0f) {
+        float sp = powr(rv, s->shininess);
+        if (sp >= 0.0f && sp <= FLT_MAX) term += vload3(0, s->ks) * sp;
+    }
 #endif
     return intensity * (term / d2);
+}
+
+/* The largest radiance a sample adds to a pixel: FLT_MAX / 2^24, so that the
+ * accumulator of texray.validate.MAX_SPP = 2^24 samples stays finite. The host keeps
+ * every input finite in float32, but intensity / d^2 of a strong light close to a
+ * point, or sums of such terms, can still exceed the float range; such a sample is
+ * clamped (a NaN, which no finite input produces, is clamped too rather than kept).
+ * Ordinary images are far below it and unchanged bit for bit. */
+#define TX_MAX_RADIANCE 2.0e31f
+
+inline float3 clamp_radiance(float3 c)
+{
+    return (float3)(c.x <= TX_MAX_RADIANCE ? c.x : TX_MAX_RADIANCE, c.y <= TX_MAX_RADIANCE ? c.y : TX_MAX_RADIANCE,
+                    c.z <= TX_MAX_RADIANCE ? c.z : TX_MAX_RADIANCE);
 }
 
 __kernel void shade(__global const Ray* rays, __global const Surface* surf, __global const uchar* vis,
@@ -40,5 +80,5 @@ __kernel void shade(__global const Ray* rays, __global const Surface* surf, __gl
                 c += light_term(&s, v, vload3(0, lights[i].position), vload3(0, lights[i].intensity));
         }
     }
-    accum[gid] += (float4)(c, 1.0f);   /* one work-item per pixel of the tile: no race */
+    accum[gid] += (float4)(clamp_radiance(c), 1.0f);   /* one work-item per pixel of the tile: no race */
 }

@@ -22,11 +22,17 @@ inline float3 shadow_origin(const Surface* s, int* lifted)
     return offset_point(vload3(0, s->p) + lift, vload3(0, s->ng), s->offset);
 }
 
-/* 1 when the light at lpos is visible from the shadow origin org of s. */
+/* 1 when the light at lpos is visible from the shadow origin org of s. A shadow ray
+ * that ray_valid (common.h) rejects -- a light or a surface point that is not finite
+ * (a light at 1e39 is inf in float32), a light farther than 2^126 on an axis, a light
+ * at the shadow origin itself (d = 0) -- sees no light: 0, also without TX_SHADOWS, so
+ * that shading never meets such a light (its I / d^2 would be 0 x inf or inf / inf).
+ * For every other light the test is unchanged. */
 inline uchar light_visible(const Surface* s, float3 org, int lifted, float3 lpos, TX_GEOM_PARAMS)
 {
     float3 d = lpos - org;
-    if (dot3(d, lifted ? vload3(0, s->ns) : vload3(0, s->ng)) <= 0.0f) return 0;
+    if (!ray_valid(org, d, 0.0f, 1.0f)) return 0;
+    if (!(dot3(d, lifted ? vload3(0, s->ns) : vload3(0, s->ng)) > 0.0f)) return 0;   /* NaN: 0 */
 #if TX_SHADOWS
     return !bvh_any(TX_GEOM_ARGS, org, d, 0.0f, 1.0f);
 #else

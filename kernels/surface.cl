@@ -64,7 +64,10 @@ inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_
             float b0 = 1.0f - h->b1 - h->b2;
             ns_raw = b0 * vload3(ts->v[0], normals) + h->b1 * vload3(ts->v[1], normals)
                    + h->b2 * vload3(ts->v[2], normals);
-            vertex_normal = dot3(ns_raw, ns_raw) > 0.0f;
+            /* Not finite (a normal of 1e39 is inf in float32; 0 x inf is NaN even at b = 0)
+             * exactly when some vertex normal is not: the triangle is shaded flat then,
+             * rather than from a NaN normal and a NaN shadow-ray lift. */
+            vertex_normal = dot3(ns_raw, ns_raw) > 0.0f && finite3(ns_raw);
             if (vertex_normal && dot3(ns_raw, dir) < 0.0f)     /* seen from the normals' side */
                 lift = terminator_lift(g.p, tri_p0(tris + idx), tri_p1(tris + idx), tri_p2(tris + idx),
                                        normalize3(vload3(ts->v[0], normals)), normalize3(vload3(ts->v[1], normals)),
@@ -174,6 +177,18 @@ inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_
     if (m->shininess_tex >= 0)
         shininess *= texture_eval(texels, textures + m->shininess_tex, tc).x;   /* n = shininess * map */
 #endif
+    /* A hit whose point, normals or shading constants came out not finite (geometry at
+     * the edge of float range, e.g. coordinates near 1e38 whose differences overflow;
+     * non-finite material data) cannot be shaded: it is taken as a miss, the same answer
+     * as for a ray the traversal rejects, so the pixel shows the background rather than
+     * NaN. Every finite hit is unaffected. */
+    if (!(finite3(g.p) && finite3(ng) && finite3(ns) && finite3(kd) && finite3(ks))) {
+        s->valid = 0u;
+#if TX_AOVS
+        if (aov) write_miss_aovs(aov, gid);
+#endif
+        return;
+    }
     vstore3(g.p, 0, s->p);
     s->offset = dot3(abs3(ng), g.perr);
     vstore3(ng, 0, s->ng);

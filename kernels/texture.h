@@ -22,11 +22,13 @@
 typedef struct { uint offset; int w, h; } TexLevel;     /* one MIP level: first texel, size */
 
 /* Level l of a texture, l clamped to [0, levels - 1]. The offsets are summed on
- * the fly (at most 32 steps; no level table to upload). */
+ * the fly (no level table to upload): at most 31 steps, since a texture of at most
+ * 2^31 texels a side has at most 32 levels (texray.texture.mip_pyramid); l is
+ * clamped to 31 as well, so a corrupt level count cannot lengthen the loop. */
 inline TexLevel texture_level(__global const TextureInfo* ti, int l)
 {
     uint off = ti->offset, w = ti->width, h = ti->height;
-    int last = (int)ti->levels - 1;
+    int last = TX_MIN((int)ti->levels - 1, 31);
     l = l < last ? l : last;
     for (int k = 0; k < l; ++k) {
         off += w * h;
@@ -172,8 +174,11 @@ inline AnisoFootprint texture_aniso_footprint(__global const TextureInfo* ti, fl
     /* minor = |det J| / major: no cancellation (geom.h tx_diff_prod), unlike sqrt of the
      * smaller eigenvalue */
     float minor = fabs(tx_diff_prod(a.x, b.y, a.y, b.x)) / f.major;
-    f.width = TX_MAX(TX_MAX(minor, f.major / (float)ti->max_aniso), 1.0f);
-    f.n = (int)TX_MIN(ceil(f.major / f.width), (float)ti->max_aniso);
+    /* max_aniso in [1, 64] (texray.texture.MAX_ANISO_LIMIT; the host checks it): the probe
+     * loop of texture_anisotropic runs n <= 64 times whatever the table says. */
+    float max_aniso = (float)clamp(ti->max_aniso, 1u, 64u);
+    f.width = TX_MAX(TX_MAX(minor, f.major / max_aniso), 1.0f);
+    f.n = (int)TX_MIN(ceil(f.major / f.width), max_aniso);
     f.n = TX_MAX(f.n, 1);
     /* The major eigenvector, from whichever row of J J^T - lambda I is well conditioned. */
     float2 v = h >= 0.0f ? (float2)(h + r, B) : (float2)(B, r - h);

@@ -98,6 +98,8 @@ inline float3 tri_p2(__global const TriVerts* tr) { return ((__global const floa
  * coordinates; ng = normalize((P1 - P0) x (P2 - P0)), the side the vertex
  * order gives. dP/du and dP/dv solve [dP/du dP/dv] [duv1 duv2] = [P1-P0 P2-P0]
  * from the uv differences (pbrt-v4 Triangle::InteractionFromIntersection);
+ * a triangle whose edge cross product overflows (edges beyond 2^64) or underflows
+ * still gets its unit normal (scaled edges, normalize3);
  * when the uv triangle has (nearly) zero area they are an arbitrary
  * orthonormal frame around ng, so that bump mapping never sees NaN. */
 inline void triangle_geom(__global const TriVerts* tv, __global const TriShade* ts, float b1, float b2,
@@ -109,7 +111,11 @@ inline void triangle_geom(__global const TriVerts* tv, __global const TriShade* 
     g->p = b0 * p0 + b1 * p1 + b2 * p2;
     /* Error bound of the interpolated point (pbrt-v4 6.8.5). */
     g->perr = gamma_n(7.0f) * (abs3(b0 * p0) + abs3(b1 * p1) + abs3(b2 * p2));
-    g->ng = normalize3(cross3(e1, e2));
+    float3 nc = cross3(e1, e2);
+    if (!finite3(nc))                  /* edges beyond 2^64: the product overflows; scaled edges */
+        nc = cross3(e1 / TX_MAX(TX_MAX(fabs(e1.x), fabs(e1.y)), fabs(e1.z)),   /* give its direction */
+                    e2 / TX_MAX(TX_MAX(fabs(e2.x), fabs(e2.y)), fabs(e2.z)));
+    g->ng = normalize3(nc);            /* common.h: also where |nc|^2 under- or overflows */
     float2 uv0 = (float2)(0.0f, 0.0f), uv1 = (float2)(1.0f, 0.0f), uv2 = (float2)(0.0f, 1.0f);
     if (uvs != 0 && (ts->flags & TRI_HAS_UVS)) {
         uv0 = vload2(ts->v[0], uvs); uv1 = vload2(ts->v[1], uvs); uv2 = vload2(ts->v[2], uvs);
