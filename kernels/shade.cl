@@ -50,18 +50,24 @@ inline float3 light_term(const Surface* s, float3 v, float3 lpos, float3 intensi
     return intensity * (term / d2);
 }
 
-/* The largest radiance a sample adds to a pixel: FLT_MAX / 2^24, so that the
+/* The largest radiance a sample adds to a pixel, either sign: FLT_MAX / 2^24, so that the
  * accumulator of texray.validate.MAX_SPP = 2^24 samples stays finite. The host keeps
  * every input finite in float32, but intensity / d^2 of a strong light close to a
- * point, or sums of such terms, can still exceed the float range; such a sample is
- * clamped (a NaN, which no finite input produces, is clamped too rather than kept).
- * Ordinary images are far below it and unchanged bit for bit. */
+ * point, or sums of such terms, can still exceed the float range (and a linear texture
+ * may hold negative texels); such a sample is clamped (a NaN, which no finite input
+ * produces, is clamped too rather than kept). Ordinary images are far inside the range
+ * and unchanged bit for bit. */
 #define TX_MAX_RADIANCE 2.0e31f
+
+inline float clamp_radiance1(float x)
+{
+    x = x <= TX_MAX_RADIANCE ? x : TX_MAX_RADIANCE;       /* NaN -> TX_MAX_RADIANCE */
+    return x >= -TX_MAX_RADIANCE ? x : -TX_MAX_RADIANCE;
+}
 
 inline float3 clamp_radiance(float3 c)
 {
-    return (float3)(c.x <= TX_MAX_RADIANCE ? c.x : TX_MAX_RADIANCE, c.y <= TX_MAX_RADIANCE ? c.y : TX_MAX_RADIANCE,
-                    c.z <= TX_MAX_RADIANCE ? c.z : TX_MAX_RADIANCE);
+    return (float3)(clamp_radiance1(c.x), clamp_radiance1(c.y), clamp_radiance1(c.z));
 }
 
 __kernel void shade(__global const Ray* rays, __global const Surface* surf, __global const uchar* vis,

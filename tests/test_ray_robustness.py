@@ -291,3 +291,13 @@ def test_radiance_beyond_the_float_range_is_clamped_not_inf(device, spp):
     assert np.all(np.isfinite(fused)) and np.array_equal(fused, staged)
     lit = fused[6, 8]
     assert np.all(lit == np.float32(2e31)), lit
+
+
+def test_negative_texels_times_a_huge_tint_stay_finite(device):
+    """A linear texture may hold negative texels; times a tint of 3e38 the sample is -inf in
+    float32 before the clamp (fuzz seed 7 case 3980): clamped to -TX_MAX_RADIANCE instead."""
+    tex = tx.Texture.from_array(np.full((2, 2, 3), -1.0, np.float32))
+    scene = tx.Scene(camera=tx.Camera(eye=(0, 0, 4)), ambient=1.0)
+    scene.add(tx.Sphere(radius=1, material=tx.Material(diffuse=tex, tint=3e38)))
+    rgb = tx.render(scene, 16, 12, device=device).rgb
+    assert np.all(np.isfinite(rgb)) and rgb[6, 8, 0] == np.float32(-2e31)

@@ -116,7 +116,7 @@ def test_paths_too_long_directories_fifos_and_devices(tmp_path):
     (lambda: tx.Mesh(np.eye(3), [[0, 1, 2]], uvs="uv"), r"uvs: expected an \(N, 2\) array of numbers, got 'uv'"),
     (lambda: tx.Mesh(np.eye(3), [[0.0, 1.0, 2.0]]), r"faces: expected an \(N, 3\) array of integers"),
     (lambda: tx.Mesh(np.eye(3), [[0, 1, 2]], normals=np.full((3, 3), 1e39)),
-     r"normals: vertex 0 is \[1e\+39, 1e\+39, 1e\+39\] \(not finite in float32\)"),
+     r"normals: vertex 0 is \[1e\+39, 1e\+39, 1e\+39\] \(expected finite values of magnitude <= 3\.4e\+38\)"),
     (lambda: tx.Cylinder(z_range=("a", "b")), r"<cylinder>: z_range: expected 2 numbers, got \['a', 'b'\]"),
     (lambda: tx.Quad((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), uvs=[[0, 0], [1, 0], [1]]),
      r"<quad>: uvs: expected an \(N, 2\) array of numbers \(equal-length rows\)"),
@@ -260,3 +260,46 @@ def test_scene_without_lights_warns():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         compile_scene(scene)
+
+
+# --- found by the fuzz suite: fields changed after an object was made ------------------------------------------
+def _mesh_scene():
+    p, f, uv = quad()
+    mesh = tx.Mesh(p, f, uvs=uv, normals=np.tile([0.0, 1.0, 0.0], (len(p), 1)),
+                   material=tx.Material(diffuse=tx.Texture.from_array(np.ones((2, 2)))), name="floor")
+    scene = tx.Scene(camera=tx.Camera(eye=(0, 2, 2)), lights=[tx.PointLight((0, 3, 0))])
+    scene.add(mesh)
+    return scene, mesh
+
+
+@pytest.mark.parametrize("edit, match", [
+    (lambda m: m.faces.__setitem__((0, 0), -1), r"floor: faces: face 0 = \[-1, .*indexes outside 0\.\.3"),
+    (lambda m: setattr(m, "uvs", m.uvs[:1]), r"floor: uvs: expected shape \(4, 2\), got \(1, 2\)"),
+    (lambda m: setattr(m, "normals", np.full((4, 3), np.nan)), r"floor: normals: vertex 0 is \[nan, nan, nan\]"),
+    (lambda m: setattr(m, "faces", np.full((2, 3), 10**6)), r"floor: faces: face 0 .* indexes outside"),
+    (lambda m: setattr(m, "positions", "abc"), r"floor: positions: expected an \(N, 3\) array"),
+    (lambda m: setattr(m, "material", "red"), r"floor: material: expected a texray\.Material, got str 'red'"),
+    (lambda m: setattr(m, "mapping", "planar"), r"floor: mapping: expected a texray\.Projection"),
+    (lambda m: setattr(m.material.diffuse, "filter", "abc"), r"texture\.filter: <array>: expected one of nearest"),
+    (lambda m: setattr(m.material.diffuse, "wrap", "abc"), r"texture\.wrap: expected one of repeat, clamp, mirror"),
+    (lambda m: setattr(m.material.diffuse, "uv_transform", "x"), r"texture\.uv_transform: <array>: expected a "
+                                                                 r"texray\.UVTransform"),
+])
+def test_objects_changed_after_creation_are_checked_again_at_render(edit, match):
+    scene, mesh = _mesh_scene()
+    edit(mesh)
+    _raises(match, tx.render, scene, 8, 8)
+
+
+def test_output_paths_are_checked():
+    _raises(r"output: expected a file path, got NoneType None", tx.render_to_file, tx.Scene(), None, 4, 4)
+    _raises(r"output: the directory /nonexistent-dir does not exist", tx.Image(np.zeros((2, 2, 3), np.float32)).save,
+            "/nonexistent-dir/x.png")
+
+
+def test_texture_coordinates_whose_interpolation_overflows_are_refused():
+    corners = ((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0))
+    _raises(r"<quad>: uvs: expected 4 \(u, v\) pairs of numbers of magnitude <= 1e\+18", tx.Quad, *corners,
+            uvs=((3e38, 0), (-3e38, 0), (3e38, 1), (0, 1)))
+    p, f, _ = quad()
+    _raises(r"uvs: vertex 0 is \[3e\+38, 0\.0\]", tx.Mesh, p, f, uvs=np.array([[3e38, 0]] * 4))

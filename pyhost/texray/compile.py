@@ -264,6 +264,8 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
                          f"got {texture_filter!r}")
     by_kind = {Mesh: [], Sphere: [], Cylinder: [], Quad: []}
     displaced = []
+    for obj in scene.objects:              # fields may have changed since the objects were made
+        obj.validate()
     for obj_id, obj in enumerate(scene.objects):
         d = getattr(obj.material, "displacement", None)
         if d is None:

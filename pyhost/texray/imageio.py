@@ -7,7 +7,7 @@ import numpy as np
 
 from .colour import linear_to_srgb
 from .errors import SceneError
-from .validate import file_path
+from .validate import file_path, output_path
 
 _LINEAR_FORMATS = {".exr", ".hdr", ".pfm"}
 
@@ -42,7 +42,7 @@ _SRGB_FORMATS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".tga")
 
 def _output_format(path):
     """The pixel format a render is written in: 8-bit sRGB, half (EXR) or float (HDR)."""
-    ext = Path(path).suffix.lower()
+    ext = output_path(path).suffix.lower()
     if ext in _LINEAR_FORMATS:
         return "half" if ext == ".exr" else "float"
     if ext in _SRGB_FORMATS:
@@ -71,7 +71,7 @@ def _open_output(path, width, height, channels, fmt):
 
 def write_image(path, rgb):
     """Write linear float RGB (H, W, 3): PNG/JPEG/TIFF as 8-bit sRGB (clamped), EXR/HDR as linear float."""
-    path = Path(path)
+    path = output_path(path)
     fmt = _output_format(path)
     rgb = np.asarray(rgb, dtype=np.float32)
     if rgb.ndim == 2:
@@ -88,7 +88,7 @@ def write_exr_layers(path, rgb, aovs):
     """One float32 EXR holding R, G, B and every AOV as channels named ``name.x``/``.y``/``.z``
     (``uv.u``, ``uv.v``; one-channel AOVs by their name)."""
     import OpenImageIO as oiio
-    path = Path(path)
+    path = output_path(path)
     names, planes = ["R", "G", "B"], [np.asarray(rgb, np.float32)]
     for name, a in aovs.items():
         a = np.asarray(a, np.float32)
@@ -114,7 +114,7 @@ class ScanlineWriter:
     memory can be saved as it is rendered. Same encodings as :func:`write_image`."""
 
     def __init__(self, path, width, height, channels=3):
-        self.path = Path(path)
+        self.path = output_path(path)
         self.fmt = _output_format(self.path)
         self.out = _open_output(self.path, width, height, channels, self.fmt)
         self.next_row = 0

@@ -125,13 +125,17 @@ class Material:
             raise SceneError(f"{where}shininess_map: {t.name} has {t.channels} channels; a shininess map takes "
                              "1 (grey)")
         if self.label is not None and not isinstance(self.label, Label):
-            raise SceneError(f"{where}label: expected a texray.Label, got {self.label!r}")
+            raise SceneError(f"{where}label: expected a texray.Label, got {V.show(self.label)}")
+
         _check_normal_roles(self, where)
         if self.displacement is not None:
             from .displace import Displacement
             if not isinstance(self.displacement, Displacement):
                 raise SceneError(f"{where}displacement: expected a texray.Displacement, got {self.displacement!r}")
             self.displacement.validate(f"{where}displacement.")
+        for t in self.textures:             # their options may have changed since they were made
+            V.instance(t, Texture, "texture", where)
+            t.validate()
         return kd, ks, n
 
     def texture_roles(self):
@@ -252,10 +256,12 @@ class Mesh:
             a = V.array(arr, name, where, width)
             if a.shape != (len(p), width):
                 raise SceneError(f"{where}{name}: expected shape ({len(p)}, {width}), got {a.shape}")
-            bad = ~np.all(np.abs(a) <= V.FLT_MAX, axis=1)
+            limit = V.COORD_LIMIT if name == "uvs" else V.FLT_MAX     # uvs are interpolated: sums must not overflow
+            bad = ~np.all(np.abs(a) <= limit, axis=1)
             if bad.any():
                 i = int(np.flatnonzero(bad)[0])
-                raise SceneError(f"{where}{name}: vertex {i} is {V.show(a[i])} (not finite in float32)")
+                raise SceneError(f"{where}{name}: vertex {i} is {V.show(a[i])} (expected finite values of magnitude "
+                                 f"<= {limit:.3g})")
             arrays[name] = a
         if "normals" in arrays:
             arrays["normals"] = _tame_normals(arrays["normals"])
@@ -274,6 +280,11 @@ class Mesh:
                              "but the mesh has no texture coordinates")
         self.positions, self.faces = p, f
         self.uvs, self.normals = arrays.get("uvs"), arrays.get("normals")
+
+    def validate(self):
+        """Check every field again (they may have been changed since the mesh was made)."""
+        self._validate()
+        return self
 
     def world(self):
         """(positions, normals) in world space, float64."""
@@ -418,6 +429,11 @@ class Sphere:
     def __post_init__(self):
         self.world()
 
+    def validate(self):
+        """Check every field again (they may have been changed since the shape was made)."""
+        self.world()
+        return self
+
     def world(self):
         """(center, radius, x, z) in world space, float64."""
         where = f"{self.name}: "
@@ -447,6 +463,11 @@ class Cylinder:
 
     def __post_init__(self):
         self.world()
+
+    def validate(self):
+        """Check every field again (they may have been changed since the shape was made)."""
+        self.world()
+        return self
 
     def world(self):
         """(origin, radius, x, z, (z_min, z_max), (theta_min, theta_max) radians) in world space."""
@@ -483,13 +504,19 @@ class Quad:
     def __post_init__(self):
         self.world()
 
+    def validate(self):
+        """Check every field again (they may have been changed since the shape was made)."""
+        self.world()
+        return self
+
     def world(self):
         """((4, 3) corners, (4, 2) uvs) in world space, float64."""
         where = f"{self.name}: "
         p = np.stack([V.point(v, f"p{i}", where) for i, v in enumerate((self.p0, self.p1, self.p2, self.p3))])
         uv = V.array(self.uvs, "uvs", where, 2)
-        if uv.shape != (4, 2) or not np.all(np.abs(uv) <= V.FLT_MAX):
-            V.fail(where, "uvs", "4 (u, v) pairs of numbers finite in float32", self.uvs)
+        if uv.shape != (4, 2) or not np.all(np.abs(uv) <= V.COORD_LIMIT):
+            V.fail(where, "uvs", f"4 (u, v) pairs of numbers of magnitude <= {V.COORD_LIMIT:.0e} (interpolated in "
+                   "float32)", self.uvs)
         if self.transform is not None:
             p = apply_points(self.transform.matrix(where + "transform."), p)
         check_extent(p, where, "p0..p3")

@@ -66,29 +66,37 @@ class Texture:
 
     def __init__(self, pixels: np.ndarray, name: str = "<array>", colorspace="linear", wrap="repeat",
                  uv_transform=None, filter="bilinear", field="texture", max_aniso=DEFAULT_MAX_ANISO):
-        from .mapping import WRAP_MODES, UVTransform
         self.name = name
         self.field = field
         if not isinstance(name, str):
             raise SceneError(f"{field}: name: expected a string, got {V.show(name)}")
         V.one_of(colorspace, ("srgb", "linear"), "colorspace", f"{field}.")
-        V.one_of(wrap, tuple(WRAP_MODES), "wrap", f"{field}.")
-        if not isinstance(filter, str) or filter not in FILTERS:
-            raise SceneError(f"{field}.filter: {name}: expected one of {', '.join(FILTERS)}, got {filter!r}")
-        if uv_transform is not None and not isinstance(uv_transform, UVTransform):
-            raise SceneError(f"{field}.uv_transform: {name}: expected a texray.UVTransform, got {uv_transform!r}")
-        if (isinstance(max_aniso, (bool, np.bool_)) or not isinstance(max_aniso, (int, np.integer))
-                or not 1 <= max_aniso <= MAX_ANISO_LIMIT):
-            raise SceneError(f"{field}.max_aniso: {name}: expected an integer in 1..{MAX_ANISO_LIMIT}, "
-                             f"got {max_aniso!r}")
-        if uv_transform is not None:
-            uv_transform.validate()
         if isinstance(pixels, _Pixels):
             self._pixels = pixels
         else:
             self._pixels = _Pixels(_check_pixels(pixels, name, field), colorspace)
-        self.wrap, self.uv_transform, self.filter = wrap, uv_transform, filter
+        self.wrap, self.uv_transform, self.filter, self.max_aniso = wrap, uv_transform, filter, max_aniso
+        self.validate()
         self.max_aniso = int(max_aniso)
+
+    def validate(self):
+        """Check the options (they may have been changed since the texture was made)."""
+        from .mapping import WRAP_MODES, UVTransform
+        field, name = self.field, self.name
+        V.one_of(self.wrap, tuple(WRAP_MODES), "wrap", f"{field}.")
+        if not isinstance(self.filter, str) or self.filter not in FILTERS:
+            raise SceneError(f"{field}.filter: {name}: expected one of {', '.join(FILTERS)}, got "
+                             f"{V.show(self.filter)}")
+        if self.uv_transform is not None and not isinstance(self.uv_transform, UVTransform):
+            raise SceneError(f"{field}.uv_transform: {name}: expected a texray.UVTransform, got "
+                             f"{V.show(self.uv_transform)}")
+        m = self.max_aniso
+        if isinstance(m, (bool, np.bool_)) or not isinstance(m, (int, np.integer)) or not 1 <= m <= MAX_ANISO_LIMIT:
+            raise SceneError(f"{field}.max_aniso: {name}: expected an integer in 1..{MAX_ANISO_LIMIT}, "
+                             f"got {V.show(m)}")
+        if self.uv_transform is not None:
+            self.uv_transform.validate()
+        return self
 
     # --- construction --------------------------------------------------------
     @classmethod

@@ -244,3 +244,22 @@ def render_settings(width, height, spp, seed, where="render: "):
     if w * h >= 2**32:
         raise SceneError(f"{where}width, height: {w} x {h} is {w * h} pixels; at most 2^32 - 1")
     return w, h, integer(spp, "spp", where, 1, MAX_SPP), integer(seed, "seed", where, 0, MAX_SEED)
+
+
+def output_path(value, field="output", where="") -> Path:
+    """A path an image can be written to: a str or os.PathLike whose names fit NAME_MAX, in an
+    existing directory, and not itself a directory."""
+    if not isinstance(value, (str, os.PathLike)) or isinstance(value, bytes):
+        raise SceneError(f"{where}{field}: expected a file path, got {_type_and_value(value)}")
+    path = Path(value)
+    text = os.fsencode(path)
+    long_part = max((len(os.fsencode(p)) for p in path.parts), default=0)
+    if not text or b"\0" in text or len(text) > PATH_MAX or long_part > NAME_MAX:
+        raise SceneError(f"{where}{field}: expected a file path of at most {PATH_MAX} bytes and {NAME_MAX} a name, "
+                         f"got {show(str(path), 120)}")
+    parent = path.parent
+    if not parent.is_dir():
+        raise SceneError(f"{where}{field}: the directory {parent} does not exist")
+    if path.is_dir():
+        raise SceneError(f"{where}{field}: {path} is a directory")
+    return path
