@@ -121,7 +121,7 @@ inline TexCoord map_projection(int kind, Frame f, float3 p, float3 dpdx, float3 
  * the sphere's poles, where the mapping's derivatives are 0 (header comment),
  * and surfaces the projection sees edge-on (a planar projection of a plane
  * perpendicular to it) -- the parameterization has no inverse: both are 0,
- * and bump.h leaves the normal unperturbed there. */
+ * and bump.h leaves the normal unperturbed there; so where the inverse overflows. */
 inline void map_tangents(int kind, Frame f, float3 p, float3 n, float3* dpdu, float3* dpdv)
 {
     float3 t1 = normalize3(fabs(n.x) > fabs(n.z) ? (float3)(-n.y, n.x, 0.0f) : (float3)(0.0f, -n.z, n.y));
@@ -134,9 +134,11 @@ inline void map_tangents(int kind, Frame f, float3 p, float3 n, float3* dpdu, fl
         float inv = 1.0f / det;
         *dpdu = (b.y * t1 - a.y * t2) * inv;
         *dpdv = (a.x * t2 - b.x * t1) * inv;
-    } else {
-        *dpdu = *dpdv = (float3)(0.0f);
+        /* A far projection origin (1e17 from the object) makes J tiny everywhere, its
+         * inverse beyond the float range: no usable tangents there either. */
+        if (finite3(*dpdu) && finite3(*dpdv)) return;
     }
+    *dpdu = *dpdv = (float3)(0.0f);
 }
 
 /* Affine UV transform, the 2x3 matrix of texray.mapping.UVTransform.matrix():

@@ -29,6 +29,7 @@ Layout of this module:
 from __future__ import annotations
 
 import contextlib
+import copy
 import io
 import math
 import os
@@ -1986,7 +1987,7 @@ def _mutate(ch, doc, L, i):
             return f"{_path_str(path)} = all {v!r}"
     if op == "wrong_type" and locs:
         parent, key, path = ch.choice(locs)
-        parent[key] = ch.choice(WRONG_TYPES)
+        parent[key] = copy.deepcopy(ch.choice(WRONG_TYPES))   # a copy: the shared values stay as they are
         return f"{_path_str(path)} = {parent[key]!r} (wrong type)"
     if op == "drop":
         cands = [l for l in locs if isinstance(l[0], dict)] + [(doc, k, (k,)) for k in doc]
@@ -2042,7 +2043,7 @@ def _mutate(ch, doc, L, i):
             parent, key, path = ch.choice(cands)
             n = ch.integer(1, 8)
             for _ in range(n):
-                parent.insert(key, __import__("copy").deepcopy(parent[key]))
+                parent.insert(key, copy.deepcopy(parent[key]))
             return f"{_path_str(path)} x{n + 1}"
     # fallback: an extreme number anywhere
     cands = [l for l in locs if _is_num(l[0][l[1]])]

@@ -67,7 +67,7 @@ def test_bench_command_writes_json_report_and_compare(tmp_path, capsys):
     # smaller one unless the sweep is broken (noise falls by sqrt(2) in expectation).
     assert sweep[1]["rmse"] < sweep[0]["rmse"]
     disp = dev["sweeps"]["terrain"]
-    from texray.bench_sweep import DISP_STEPS
+    from texray.bench.sweep import DISP_STEPS
     assert disp["kind"] == "displacement" and disp["reference"].startswith("tessellate")
     assert set(disp["series"]) == {"search M=0", "search M=4", "search M=8", "search adaptive M=8", "maxmip",
                                    "tessellate"}

@@ -400,7 +400,7 @@ def test_bench_scene_files_and_their_height_maps():
     import importlib.util
     from pathlib import Path
 
-    from texray import bench_sweep as B
+    from texray.bench import sweep as B
     root = Path(__file__).resolve().parents[1]
     spec = importlib.util.spec_from_file_location("make_assets", root / "tools" / "make_assets.py")
     assets = importlib.util.module_from_spec(spec)

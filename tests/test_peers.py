@@ -1,4 +1,4 @@
-"""texray.peers: the scene -> Mitsuba conversion (pure Python, no peer needed), and, when the
+"""texray.bench.peers: the scene -> Mitsuba conversion (pure Python, no peer needed), and, when the
 peers are installed, Embree's hits and Mitsuba's images against texray's on the same work."""
 import math
 import sys
@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import texray as tx
-from texray import peers, procedural
+from texray import procedural
+from texray.bench import peers
 
 
 def _texture(seed=1, shape=(4, 6), cell=8):

@@ -93,7 +93,7 @@ def test_light_bound_renders_like_a_runtime_loop(device, n_lights):
 def test_scenes_need_few_program_variants(scenes_dir):
     """Rendering every scene file compiles few distinct programs (issue 4's budget): at
     most one per scene, and fewer than there are scenes."""
-    from texray.bench_suite import program_variants
+    from texray.bench.suite import program_variants
     paths = [p for p in sorted(scenes_dir.rglob("*.toml")) if p.stem != "mesh1m"]
     variants = program_variants(paths)
     assert sum(len(v["scenes"]) for v in variants) == len(paths)

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Kernel benchmark: same as ``texray bench`` (see texray/bench.py); runs from a source tree."""
+"""Kernel benchmark: same as ``texray bench`` (see texray/bench/); runs from a source tree."""
 import sys
 from pathlib import Path
 

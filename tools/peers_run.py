@@ -13,7 +13,7 @@ try:
     import texray  # noqa: F401
 except ImportError:
     sys.path.insert(0, str(ROOT / "pyhost"))
-from texray.bench_peers import bench_peers
+from texray.bench.compare_peers import bench_peers
 
 
 def main(argv=None):

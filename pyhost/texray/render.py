@@ -60,26 +60,32 @@ def _host_image_bytes(width, height, aovs):
 
 
 def _check_host_memory(nbytes, width, height):
-    """SceneError when the image kept in host memory cannot fit the memory available."""
-    try:
-        avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") + _swap_free()
-    except (ValueError, OSError, AttributeError):     # not POSIX: let numpy report it
-        return
-    if nbytes > avail:
+    """SceneError when the image kept in host memory cannot fit the memory available
+    (MemAvailable, which counts reclaimable caches, plus free swap)."""
+    avail = _host_memory_available()
+    if avail is not None and nbytes > avail:
         raise SceneError(f"render: width, height: a {width} x {height} image needs {nbytes / 2**30:.1f} GiB of host "
                          f"memory and {avail / 2**30:.1f} GiB are available; render_to_file(...) or sink= "
                          "streams the image band by band")
 
 
-def _swap_free():
+def _host_memory_available():
+    """Bytes of host memory a new allocation can get, or None where the system does not say
+    (then numpy reports a failed allocation itself)."""
+    fields = {}
     try:
         with open("/proc/meminfo") as f:
             for line in f:
-                if line.startswith("SwapFree:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
+                key, _, rest = line.partition(":")
+                fields[key] = int(rest.split()[0]) * 1024
+    except (OSError, ValueError, IndexError):
         pass
-    return 0
+    if "MemAvailable" in fields:
+        return fields["MemAvailable"] + fields.get("SwapFree", 0)
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
 
 
 class _Uploaded:
@@ -350,7 +356,8 @@ def render_to_file(scene, path, width, height, spp=1, **kwargs) -> dict:
     from .imageio import ScanlineWriter
     if "aovs" in kwargs and kwargs["aovs"]:
         raise SceneError("render_to_file: AOVs are not streamed; use render() and Image.save")
-    writer = ScanlineWriter(path, _positive_int(width, "width"), _positive_int(height, "height"))
+    width, height, spp, _ = V.render_settings(width, height, spp, kwargs.get("seed", 0))
+    writer = ScanlineWriter(path, width, height)
     try:
         image = render(scene, width, height, spp, sink=lambda y0, rgb, _aov: writer.write(y0, rgb), **kwargs)
     finally:

@@ -217,6 +217,9 @@ class Mesh:
         except IndexError as e:  # trimesh's parsers index vertex arrays with the file's face indices
             raise SceneError(f"mesh: cannot read {path}: a face refers to a vertex (or uv, normal) the file does "
                              f"not define ({e})") from None
+        except ModuleNotFoundError:   # trimesh guesses the encoding of undecodable text with an extra module
+            raise SceneError(f"mesh: cannot read {path}: neither UTF-8 text nor a binary {kind.upper()} file "
+                             "trimesh recognizes") from None
         except Exception as e:   # trimesh raises many kinds of errors for unreadable files
             raise SceneError(f"mesh: cannot read {path}: {type(e).__name__}: {e}") from None
         try:

@@ -3,7 +3,7 @@
 Per scene and device: whole frames and each kernel stage (OpenCL profiling
 events), for the specialized program (compiled for the scene's features) and
 the generic one (every feature compiled in); cold and warm program builds
-(fresh processes, see :mod:`texray.buildtime`); device memory. Every figure is
+(fresh processes, see :mod:`texray.bench.buildtime`); device memory. Every figure is
 the median over ``repeat`` runs after one warm-up run, with min and max.
 """
 from __future__ import annotations
@@ -23,7 +23,7 @@ def median_spread(values):
 def scenes_dir() -> Path:
     """The repository's ``scenes/`` (from the working directory or the source tree)."""
     here = Path(__file__).resolve()
-    for base in (Path.cwd(), here.parents[2]):
+    for base in (Path.cwd(), here.parents[3]):     # pyhost/texray/bench/suite.py -> the repository
         if (base / "scenes" / "bench").is_dir():
             return base / "scenes"
     raise SystemExit("texray bench: scenes/bench/ not found; run from the repository root")
@@ -60,7 +60,7 @@ def frame_stats(runs, samples, shadow_rays):
 def bench_scene(scene, compiled, device, width, height, spp, repeat, generic=True, local_size=None):
     """Frames of one scene on one device: the specialized program (fused pipeline, and the
     staged one for the per-stage times) and the generic program (fused)."""
-    from .render import render
+    from ..render import render
     samples = width * height * spp
     shadow_rays = samples * len(compiled.lights) if compiled.features.shadows else 0
     out = {"width": width, "height": height, "spp": spp, "lights": int(len(compiled.lights))}
@@ -95,9 +95,9 @@ def build_times(path, device, generic=True):
 
 def program_variants(paths):
     """The distinct programs (feature sets) that rendering every scene in ``paths`` builds."""
-    from .compile import compile_scene
-    from .features import compile_options
-    from .scene import Scene
+    from ..compile import compile_scene
+    from ..features import compile_options
+    from ..scene import Scene
     seen = {}
     for p in paths:
         key = tuple(sorted(compile_options(compile_scene(Scene.load(p)).features).items()))
@@ -108,7 +108,7 @@ def program_variants(paths):
 def local_size_sweep(scene, compiled, device, width, height, spp, repeat, sizes):
     """Frame time per work-group size (0 = the driver's choice), interleaved over repeats
     so that machine noise hits every size alike."""
-    from .render import render
+    from ..render import render
     times = {s: [] for s in sizes}
     for s in sizes:       # warm-up: PoCL generates code per local size
         render(scene, width, height, spp, device=device, compiled=compiled, local_size=s)

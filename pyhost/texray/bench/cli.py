@@ -1,25 +1,9 @@
 """``texray bench``: the kernel benchmark.
 
-Measures, on every OpenCL device (or the ones chosen with ``--device``):
-
-* BVH build time and SAH cost of a 1M-triangle mesh (host side, once);
-* closest-hit throughput of 1024^2 pixel-centre primary rays on that mesh and
-  any-hit throughput of shadow rays from the hits toward a point light (the
-  work of peers.md's Embree figures);
-* the suite ``scenes/bench/`` (1M-triangle mesh, textured globe, textured quad
-  at grazing angles, every primitive and mapping mixed): frame time and each
-  kernel stage (OpenCL profiling events) for the program specialized to the
-  scene and for the generic program with every feature compiled in; cold and
-  warm build times of both (fresh processes); device memory;
-* ``--sweep``: the speed/accuracy knobs (spp, texture filtering) against a
-  reference image, as a table and an error-against-time plot (``--plot``);
-* ``--local-sizes``: frame time per work-group size;
-* ``--peers``: Embree and Mitsuba 3 on the same work (``texray[peers]``).
-
-Every figure is the median over ``--repeat`` runs after one warm-up run, with
-the spread (min-max) beside it. Prints tables, writes JSON (``--json``) and a
-markdown report (``--report``); ``--compare A.json B.json`` prints the ratios
-between two runs.
+Its command line: the options, the run over every chosen device (ray throughput,
+the suite scenes, their builds, the sweeps, work-group sizes, the peers) and the
+outputs (tables, ``--json``, ``--report``, ``--plot``, ``--compare``). What each
+figure measures: :mod:`texray.bench`.
 """
 from __future__ import annotations
 
@@ -29,16 +13,13 @@ import platform
 import subprocess
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
-from . import __version__
-from .bench_report import compare, markdown, print_device
-from .bench_suite import (SUITE, bench_scene, build_times, local_size_sweep, median_spread, program_variants,
-                          scenes_dir, suite_paths)
-from .bench_sweep import SPP_VALUES, displaced, plot, sweep_scene
+from .. import __version__
+from .rays import bench_bvh, bench_mesh_scene, bench_rays
+from .report import compare, markdown, print_device
+from .suite import SUITE, bench_scene, build_times, local_size_sweep, program_variants, scenes_dir, suite_paths
+from .sweep import SPP_VALUES, displaced, plot, sweep_scene
 
 
 def _git_commit():
@@ -53,72 +34,6 @@ def _git_commit():
         if out:
             return out
     return None
-
-
-def bench_mesh_scene(triangles):
-    from . import procedural
-    from .scene import Camera, Mesh, PointLight, Scene
-    m = procedural.bench_mesh(triangles)
-    scene = Scene(camera=Camera(eye=(0.0, 0.4, 3.2), look_at=(0, 0, 0), fov_y=40),
-                  lights=[PointLight((3.0, 4.0, 5.0), (40, 40, 40))])
-    scene.add(Mesh(m.positions, m.faces, name=f"bench_mesh({triangles})"))
-    return scene
-
-
-def bench_bvh(scene, repeat):
-    """(compiled scene, BVH figures): the scene's compile time and the SAH build of its triangles."""
-    from . import bvh
-    from .compile import compile_scene, triangle_bounds
-    t0 = time.perf_counter()
-    cs = compile_scene(scene)
-    compile_s = time.perf_counter() - t0
-    lo, hi = triangle_bounds(cs.tri_verts)
-    times, tree = [], None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        tree = bvh.build(lo, hi)
-        times.append(time.perf_counter() - t0)
-    return cs, {"triangles": int(len(lo)), "build_s": median_spread(times), "sah_cost": tree.sah_cost,
-                "nodes": int(len(tree.nodes)), "depth": tree.depth, "scene_compile_s": compile_s}
-
-
-@dataclass
-class RayWork:
-    """The rays bench_rays traced and texray's answers, for the peers to trace the same."""
-    compiled: object         # CompiledScene of the bench mesh
-    mesh: object             # its texray.Mesh (positions, faces)
-    org: np.ndarray
-    dirs: np.ndarray
-    hits: object             # texray.trace.Hits of the primary rays
-    shadow_org: np.ndarray
-    shadow_dirs: np.ndarray
-    occluded: np.ndarray
-
-
-def bench_rays(cs, scene, device, size, repeat):
-    """(figures, RayWork): closest-hit Mrays/s of size^2 pixel-centre primary rays and
-    any-hit Mrays/s of shadow rays from their hits toward the first light."""
-    from .peers import primary_rays, shadow_rays
-    from .trace import Tracer
-    tracer = Tracer(cs, device)
-    org, dirs = primary_rays(scene.camera, size)
-    primary, shadow, hits = [], [], None
-    for i in range(repeat + 1):
-        hits = tracer.closest(org, dirs)
-        if i:
-            primary.append(len(dirs) / hits.seconds * 1e-6)
-    hit = hits.prim >= 0
-    so, sd = shadow_rays(org, dirs, hits.t, hit, scene.lights[0].position)
-    for i in range(repeat + 1):
-        occ, secs = tracer.occluded(so, sd, 0.0, 1.0)
-        if i:
-            shadow.append(len(so) / secs * 1e-6)
-    figures = {"device": tracer.rt.device.name.strip(), "triangles": int(len(cs.tri_verts)),
-               "rays": int(len(dirs)), "hit_fraction": float(hit.mean()),
-               "primary_mrays_s": median_spread(primary),
-               "shadow_rays": int(len(so)), "shadow_occluded_fraction": float(occ.mean()),
-               "shadow_mrays_s": median_spread(shadow)}
-    return figures, RayWork(cs, scene.objects[0], org, dirs, hits, so, sd, occ)
 
 
 def _csv_ints(text, what):
@@ -180,9 +95,9 @@ def main(argv=None):
         return 0
     if args.repeat < 1:
         ap.error("--repeat must be >= 1")
-    from .compile import compile_scene
-    from .device import devices, select_device
-    from .scene import Scene
+    from ..compile import compile_scene
+    from ..device import devices, select_device
+    from ..scene import Scene
     chosen = args.device or [d.index for d in devices() if d.type in ("cpu", "gpu")]
     chosen = [int(d) if isinstance(d, str) and d.isdigit() else d for d in chosen]
     size = _size(args.size) if args.size else None
@@ -246,7 +161,7 @@ def main(argv=None):
             r["local_sizes"] = {"scene": "mixed", "size": f"{w}x{h}", "spp": 4,
                                 "frame_s": local_size_sweep(sc, cs, dev, w, h, 4, args.repeat, sizes)}
         if args.peers:
-            from .bench_peers import bench_peers
+            from .compare_peers import bench_peers
             peer_scenes = list(suite_paths(["globe", "grazing_quad", "brick_wall", "textured_meshes"]).values())
             measured = (r["rays"], work, results["bvh"]["scene_compile_s"]) if work is not None else None
             r["peers"] = bench_peers(dev, args.repeat, args.triangles, args.rays or 1024, peer_scenes,

@@ -1,6 +1,6 @@
 """Kernel build times, cold and warm, measured in a fresh process.
 
-``python -m texray.buildtime SCENE [--device D] [--generic]`` loads a scene,
+``python -m texray.bench.buildtime SCENE [--device D] [--generic]`` loads a scene,
 then times building its program (OpenCL ``clBuildProgram``) plus the code
 generation that drivers defer to a kernel's first launch (PoCL compiles each
 kernel for its work-group size when it is first enqueued), and prints JSON.
@@ -20,11 +20,11 @@ import time
 
 
 def _time_build(scene_path, device, specialize):
-    from .compile import compile_scene
-    from .device import runtime
-    from .features import compile_options
-    from .render import generic_features, render
-    from .scene import Scene
+    from ..compile import compile_scene
+    from ..device import runtime
+    from ..features import compile_options
+    from ..render import generic_features, render
+    from ..scene import Scene
     scene = Scene.load(scene_path)
     cs = compile_scene(scene)
     features = cs.features if specialize else generic_features(cs.features)
@@ -49,7 +49,7 @@ def measure(scene_path, device=None, specialize=True, timeout=600) -> dict:
     with tempfile.TemporaryDirectory(prefix="texray-buildcache-") as cache:
         env = dict(os.environ, XDG_CACHE_HOME=cache, POCL_CACHE_DIR=os.path.join(cache, "pocl"),
                    CUDA_CACHE_PATH=os.path.join(cache, "nv"), PYOPENCL_NO_CACHE="0")
-        cmd = [sys.executable, "-m", "texray.buildtime", str(scene_path)]
+        cmd = [sys.executable, "-m", "texray.bench.buildtime", str(scene_path)]
         if device is not None:
             cmd += ["--device", str(device)]
         if not specialize:
@@ -58,7 +58,7 @@ def measure(scene_path, device=None, specialize=True, timeout=600) -> dict:
         for _ in range(2):
             out = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=timeout)
             if out.returncode != 0:
-                raise RuntimeError(f"texray.buildtime {scene_path} failed:\n{out.stderr[-2000:]}")
+                raise RuntimeError(f"texray.bench.buildtime {scene_path} failed:\n{out.stderr[-2000:]}")
             runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
     return {"cold_s": runs[0]["build_s"], "warm_s": runs[1]["build_s"],
             "cold_program_s": runs[0]["program_s"], "cold_first_launch_s": runs[0]["first_launch_s"]}
@@ -66,7 +66,7 @@ def measure(scene_path, device=None, specialize=True, timeout=600) -> dict:
 
 def main(argv=None):
     import argparse
-    ap = argparse.ArgumentParser(prog="python -m texray.buildtime", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m texray.bench.buildtime", description=__doc__.splitlines()[0])
     ap.add_argument("scene")
     ap.add_argument("--device")
     ap.add_argument("--generic", action="store_true", help="time the generic program instead")

@@ -19,7 +19,7 @@ import dataclasses
 
 import numpy as np
 
-from .bench_suite import median_spread
+from .suite import median_spread
 
 SPP_VALUES = (1, 2, 4, 8, 16, 32, 64)
 FILTER_SPP = (1, 4, 16)
@@ -65,7 +65,7 @@ def _with_role(scene, role, make):
 def with_bump_delta(scene, texels):
     """A copy of ``scene`` whose bump maps all use the step ``texels`` (texels of each height
     texture, or "analytic"); the scene itself is not changed."""
-    from .bump import Bump
+    from ..bump import Bump
 
     def make(b):
         delta = "analytic" if texels == "analytic" else min(0.5, texels / max(b.texture.shape))
@@ -95,7 +95,7 @@ def sweep_scene(scene, compiled, device, width, height, repeat, ref_spp=256, spp
     """{"reference": ..., "series": {name: [point]}}, point = label, settings, time, errors.
     A displaced scene is swept by :func:`sweep_displacement` (``ref_spp``, ``spp_values`` and
     ``filter_spp`` do not apply)."""
-    from .render import render
+    from ..render import render
     if displaced(scene):
         return sweep_displacement(scene, device, width, height, repeat)
     ref_kw = {"texture_filter": "bilinear"} if compiled.textures is not None else {}
@@ -178,15 +178,15 @@ def with_displacement(scene, method, **knobs):
     """A copy of ``scene`` whose displacement maps all use ``method`` and ``knobs`` (steps,
     refine, adaptive, resolution), keeping each map's texture, scale and offset; the
     scene itself is not changed."""
-    from .displace import Displacement
+    from ..displace import Displacement
     return _with_role(scene, "displacement", lambda d: Displacement(d.texture, scale=d.scale, offset=d.offset,
                                                                     method=method, **knobs))
 
 
 def _maxmip_applies(scene):
     """maxmip displaces planar parallelogram quads only: does every displaced object take it?"""
-    from .compile import compile_scene
-    from .errors import SceneError
+    from ..compile import compile_scene
+    from ..errors import SceneError
     try:
         compile_scene(with_displacement(scene, "maxmip"))
     except SceneError:
@@ -198,8 +198,8 @@ def displacement_scenes(names=DISP_SCENES):
     """The displacement sweep's scenes, loaded from scenes/bench/: {name: (scene, factory)},
     factory(method, **knobs) -> the scene with every displacement map set to that method
     (:func:`with_displacement`)."""
-    from .bench_suite import suite_paths
-    from .scene import Scene
+    from .suite import suite_paths
+    from ..scene import Scene
     out = {}
     for name, path in suite_paths(list(names)).items():
         scene = Scene.load(path)
@@ -245,7 +245,7 @@ def sweep_displacement(scene, device, width, height, repeat):
     hit against a miss, or depth off by more than 1%)."""
     import time
 
-    from .render import render
+    from ..render import render
     series = displacement_series(scene)
     ref_scene = with_displacement(scene, "tessellate", resolution=DISP_REF_RESOLUTION)
     t0 = time.perf_counter()

@@ -18,9 +18,11 @@ import time
 from pathlib import Path
 
 import texray as tx
-from texray import peers
-from texray.bench_suite import median_spread
 from texray.compile import compile_scene
+
+from . import peers
+from .rays import bench_mesh_scene, bench_rays
+from .suite import median_spread
 
 
 def cell(v, fmt=".2f", width=22):
@@ -29,9 +31,8 @@ def cell(v, fmt=".2f", width=22):
 
 def rays(device, triangles, size, repeat, threads_list, measured=None):
     """(texray's figures, Embree's per thread count) on the same mesh and rays. ``measured``:
-    (figures, texray.bench.RayWork, scene compile seconds) of a bench run that traced them
+    (figures, :class:`texray.bench.rays.RayWork`, scene compile seconds) of a bench run that traced them
     already; else the bench mesh is built and traced here as ``texray bench`` does."""
-    from .bench import bench_mesh_scene, bench_rays
     if measured is None:
         scene = bench_mesh_scene(triangles)
         t0 = time.perf_counter()

@@ -38,8 +38,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from .errors import SceneError
-from .scene import Cylinder, Material, Mesh, Quad, Scene, Sphere, Texture
+from ..errors import SceneError
+from ..scene import Cylinder, Material, Mesh, Quad, Scene, Sphere, Texture
 
 MITSUBA_VARIANT = "llvm_ad_rgb"
 FALLBACK_VARIANT = "scalar_rgb"
