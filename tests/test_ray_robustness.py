@@ -301,3 +301,22 @@ def test_negative_texels_times_a_huge_tint_stay_finite(device):
     scene.add(tx.Sphere(radius=1, material=tx.Material(diffuse=tex, tint=3e38)))
     rgb = tx.render(scene, 16, 12, device=device).rgb
     assert np.all(np.isfinite(rgb)) and rgb[6, 8, 0] == np.float32(-2e31)
+
+
+def test_projection_far_from_its_object_gives_finite_tangents(device):
+    """A spherical projection whose origin lies 1e17 from the object (the exact scene of fuzz seed
+    2027 case 2939, which gave dpdv = (inf, nan, inf)): the Jacobian's inverse overflows float32,
+    so dP/du, dP/dv are 0 (mapping.h), never inf or NaN."""
+    from texray import procedural
+    g = procedural.grid(2, 4)
+    m = tx.Mesh(g.positions * 0.274 + np.array((0.464, 0.217, -0.279)), g.faces, uvs=g.uvs,
+                material=tx.Material(diffuse=tx.Texture.procedural("checker", size=8)),
+                mapping=tx.Projection("spherical", z_axis=(0.971, -0.02, -0.238), x_axis=(0.0, 1.0, 0.0),
+                                      scale=2.909, origin=(1e17, 0, 0)))
+    scene = tx.Scene(camera=tx.Camera(eye=(-4.918, 1.25, 5.693), look_at=(-0.438, 0.314, 0.083), fov_y=20.162),
+                     lights=[tx.PointLight((-2.589, 3.638, -1.253), 13)], objects=[m])
+    img = tx.render(scene, 15, 11, 2, device=device, aovs=("dpdu", "dpdv"), specialize=False)
+    hit = ~np.isnan(img.aov["dpdv"]).all(-1)
+    assert hit.any() and np.all(np.isfinite(img.rgb))
+    for name in ("dpdu", "dpdv"):
+        assert np.all(np.isfinite(img.aov[name][hit])), name

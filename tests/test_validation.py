@@ -303,3 +303,15 @@ def test_texture_coordinates_whose_interpolation_overflows_are_refused():
             uvs=((3e38, 0), (-3e38, 0), (3e38, 1), (0, 1)))
     p, f, _ = quad()
     _raises(r"uvs: vertex 0 is \[3e\+38, 0\.0\]", tx.Mesh, p, f, uvs=np.array([[3e38, 0]] * 4))
+
+
+def test_later_fuzz_findings(tmp_path):
+    """render_to_file checked the sizes only after the file was opened (TypeError from the image
+    writer, fuzz seed 2026 case 992); random bytes as an STL blamed a missing module (case 10102)."""
+    _raises(r"render: width: expected an integer in \[1, 1048576\], got 4294967296", tx.render_to_file,
+            tx.Scene(), str(tmp_path / "o.jpg"), 2**32, 4)
+    assert not (tmp_path / "o.jpg").exists()
+    (tmp_path / "m.stl").write_bytes(bytes(np.random.default_rng(3).integers(0, 256, 999, dtype=np.uint8)))
+    with pytest.raises(SceneError, match=r"mesh: cannot read .*m\.stl") as e:
+        tx.Mesh.load(tmp_path / "m.stl")
+    assert "No module named" not in str(e.value)
