@@ -1215,6 +1215,14 @@ _MESH_VALUE_EDITS = [   # (code, must_reject reason or None)
     ("N = -N", None),
     ("N = N * 1e-40", None),
 ]
+def _edited(whys, edit, why):
+    """The (array, reason) list after ``edit``: one that replaces an array with None voids the
+    reasons of that array's earlier edits."""
+    if edit.endswith(" = None"):
+        whys = [(a, w) for a, w in whys if a != edit[0]]
+    return whys + [(edit[0], why)]
+
+
 _MESH_TYPE_EDITS = [    # applied last, at most one
     ("P = P[:, :2]", "positions of shape (V, 2)"),
     ("P = P.tolist(); P[0] = P[0][:2]", "ragged positions"),
@@ -1452,11 +1460,11 @@ def gen_geometry(ch) -> Case:
         for _ in range(ch.integer(0, 3)):
             edit, why = ch.choice(_MESH_VALUE_EDITS)
             L.add(edit.format(i=ch.integer(0, 2), j=ch.integer(0, 2)))
-            whys.append((edit[0], why))
+            whys = _edited(whys, edit, why)
         if ch.boolean(0.5):
             edit, why = ch.choice(_MESH_TYPE_EDITS)
             L.add(edit)
-            whys.append((edit[0], why))
+            whys = _edited(whys, edit, why)
         kw = {}
         if ch.boolean(0.7):
             kw["uvs"] = Code("UV")
@@ -1943,7 +1951,7 @@ def _special_path(ch, L, original, i):
     if k == "random_bytes":
         L.add(f"random_bytes({name!r}, {ch.integer(0, 3000)}, seed={ch.integer(0, 999)})")
         return name, k
-    if k == "truncated" and src_rel:
+    if k == "truncated" and src_rel and os.path.isfile(original):   # a real asset (not /dev/zero)
         L.add(f"truncated({name!r}, {src_rel!r}, {r3(ch.floats(0, 0.99))})")
         return name, k
     if k == "other_kind":
