@@ -1032,6 +1032,8 @@ def gen_random_scene(ch, knobs=frozenset()) -> Case:
         if kind == "sphere":
             mat = _valid_material(ch, L, "sphere")
             ax = {"axis_z": unit_dir(ch)} if ch.boolean(0.3) else {}
+            if abs(ax.get("axis_z", (0.0,))[0]) > 0.9:     # the default axis_x (1, 0, 0) would be parallel
+                ax["axis_x"] = (0.0, 1.0, 0.0)
             if baked:
                 o = call("tx.Sphere", center=place(c), radius=Code(f"S * {size}"), material=mat, **ax, **extra)
             else:
