@@ -129,6 +129,15 @@ class Code(str):
     """A piece of Python source, written as is by :func:`lit`."""
 
 
+def _float_text(v) -> str:
+    """A float as Python and TOML both write it, nan and +-inf by name."""
+    if math.isnan(v):
+        return "nan"
+    if math.isinf(v):
+        return "inf" if v > 0 else "-inf"
+    return repr(v)
+
+
 def lit(v) -> str:
     """``v`` as Python source (nan/inf as the names ``nan``/``inf`` of the case namespace)."""
     if isinstance(v, Code):
@@ -136,11 +145,7 @@ def lit(v) -> str:
     if isinstance(v, bool) or v is None or isinstance(v, (int, str, bytes)):
         return repr(v)
     if isinstance(v, float):
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return repr(v)
+        return _float_text(v)
     if isinstance(v, complex):
         return repr(v)
     if isinstance(v, list):
@@ -192,11 +197,7 @@ def _toml_value(v):
     if isinstance(v, int):
         return str(v)
     if isinstance(v, float):
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return repr(v)
+        return _float_text(v)
     if isinstance(v, str):
         return _toml_str(v)
     if isinstance(v, list):

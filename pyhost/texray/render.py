@@ -47,14 +47,6 @@ class Image:
             write_image(path, self.rgb)
 
 
-def _positive_int(value, name, hi=None):
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value <= 0:
-        raise SceneError(f"render: {name}: expected a positive integer, got {V.show(value)}")
-    if hi is not None and value > hi:
-        raise SceneError(f"render: {name}: expected a positive integer <= {hi}, got {V.show(value)}")
-    return int(value)
-
-
 def _host_image_bytes(width, height, aovs):
     return width * height * (16 + 4 * layout.AOV_FLOATS * bool(aovs))
 
@@ -334,7 +326,7 @@ def plan_rows(width, height, per_ray_bytes, scene_bytes, dev, memory_limit=None,
     single allocation. Raises DeviceError when not even one row fits."""
     if memory_limit is None:
         memory_limit = dev.global_mem_size // 4
-    memory_limit = _positive_int(memory_limit, "memory_limit")
+    memory_limit = V.integer(memory_limit, "memory_limit", "render: ", 1)
     free = memory_limit - scene_bytes
     if free < per_ray_bytes * width:
         raise DeviceError(f"render: the scene's arrays take {scene_bytes / 2**20:.1f} MiB and one row of "
@@ -342,7 +334,7 @@ def plan_rows(width, height, per_ray_bytes, scene_bytes, dev, memory_limit=None,
                           f"limit {memory_limit / 2**20:.1f} MiB of {dev.name.strip()}")
     max_buffer = max(layout.SURFACE.itemsize, 4 * layout.AOV_FLOATS)    # the largest per-ray buffer
     by_memory = min(free // per_ray_bytes, dev.max_mem_alloc_size // max_buffer)
-    limit = MAX_TILE_PIXELS if tile_pixels is None else _positive_int(tile_pixels, "tile_pixels")
+    limit = MAX_TILE_PIXELS if tile_pixels is None else V.integer(tile_pixels, "tile_pixels", "render: ", 1)
     pixels = min(by_memory, limit)
     return int(max(1, min(height, pixels // width)))
 
