@@ -2,7 +2,7 @@
 functions one at a time against float64 references."""
 import pyopencl as cl
 
-from texray import layout
+from texray.device import layout
 from texray.device import KERNEL_DIR
 
 _cache = {}

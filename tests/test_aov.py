@@ -4,7 +4,7 @@ import OpenImageIO as oiio
 import pytest
 
 import texray as tx
-from texray import layout
+from texray.device import layout
 from reference import scene_hits
 from scenes_for_tests import textured_box_scene
 

@@ -8,7 +8,7 @@ import dataclasses
 import pyopencl as cl
 import pytest
 
-from texray.features import Features, compile_options
+from texray.device.features import Features, compile_options
 
 
 @pytest.mark.parametrize("which", ["generic", "lean"])

@@ -9,8 +9,8 @@ import itertools
 import numpy as np
 import pytest
 import texray as tx
-from texray import layout
-from texray.mapping import project_numpy
+from texray.device import layout
+from texray.scene.mapping import project_numpy
 
 W = 32                                   # ramp texture size
 

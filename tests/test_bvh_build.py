@@ -9,8 +9,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from texray.bvh import build, leaf_size_limit, sah_cost
-from texray.layout import BVH_NODE, PRIM_TRIANGLE, decode_leaf, encode_leaf
+from texray.accel.bvh import build, leaf_size_limit, sah_cost
+from texray.device.layout import BVH_NODE, PRIM_TRIANGLE, decode_leaf, encode_leaf
 
 
 # --- scenes -----------------------------------------------------------------

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import texray as tx
-from texray.render import render
+from texray.renderer import render
 
 from conftest import OCLGRIND_LOG, PORTABILITY_DEVICES
 

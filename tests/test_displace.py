@@ -12,9 +12,11 @@ import numpy as np
 import pyopencl as cl
 import pytest
 import texray as tx
-from texray import displace as D
-from texray import layout
-from texray.trace import Tracer
+from texray.compile import heights as H
+from texray.compile import tessellate as T
+from texray.scene import heightfield as HF
+from texray.device import layout
+from texray.renderer.trace import Tracer
 
 T_EXACT = 2e-4       # relative t error of maxmip: the cell quadratic in float32 (module docstring)
 T_SEARCH = 2e-3      # relative t error of N = 128, M = 8 at up to 80 degrees
@@ -63,7 +65,7 @@ def quad_reference(d, org, dirs, samples=4000):
         q = lo[:, None] + t[..., None] * ld[:, None]
         u, v = q[..., 0], q[..., 1]
         inside = (u >= -1e-12) & (u <= 1 + 1e-12) & (v >= -1e-12) & (v <= 1 + 1e-12)
-        return np.where(inside, q[..., 2] - D.height(h, np.clip(u, 0, 1), np.clip(v, 0, 1), d.wrap), np.inf)
+        return np.where(inside, q[..., 2] - HF.height(h, np.clip(u, 0, 1), np.clip(v, 0, 1), d.wrap), np.inf)
 
     tn, tf = np.where(ok, tn, 0.0), np.where(ok, tf, 0.0)     # misses: an empty interval, no inf - inf
     t = tn[:, None] + np.linspace(0, 1, samples)[None] * (tf - tn)[:, None]
@@ -260,23 +262,23 @@ def test_host_height_field_and_pyramid():
     # Texel centres return the texels (row 0 on top, v = 0 at the bottom).
     u = (np.arange(7) + 0.5) / 7
     v = 1 - (np.arange(5) + 0.5) / 5
-    np.testing.assert_allclose(D.height(h, u[None, :], v[:, None]), h)
+    np.testing.assert_allclose(HF.height(h, u[None, :], v[:, None]), h)
     # The pyramid bounds the interpolant everywhere, for every wrap mode.
     for wrap in ("repeat", "clamp", "mirror"):
-        pyr = D.minmax_pyramid(h, wrap)
+        pyr = H.minmax_pyramid(h, wrap)
         assert pyr[-1].shape == (1, 1, 2)
         uu, vv = rng.random(20000), rng.random(20000)
-        val = D.height(h, uu, vv, wrap)
+        val = HF.height(h, uu, vv, wrap)
         cx = np.floor(uu * 7 + 0.5).astype(int)
         cy = np.floor((1 - vv) * 5 + 0.5).astype(int)
         for lv in pyr:
             assert np.all(val >= lv[cy, cx, 0] - 1e-12) and np.all(val <= lv[cy, cx, 1] + 1e-12), wrap
             cx, cy = cx // 2, cy // 2
     # Gradient: central differences of the interpolant inside a cell.
-    gu, gv = D.height_gradient(h, 0.41, 0.37)
+    gu, gv = HF.height_gradient(h, 0.41, 0.37)
     e = 1e-6
-    np.testing.assert_allclose(gu, (D.height(h, 0.41 + e, 0.37) - D.height(h, 0.41 - e, 0.37)) / (2 * e), rtol=1e-5)
-    np.testing.assert_allclose(gv, (D.height(h, 0.41, 0.37 + e) - D.height(h, 0.41, 0.37 - e)) / (2 * e), rtol=1e-5)
+    np.testing.assert_allclose(gu, (HF.height(h, 0.41 + e, 0.37) - HF.height(h, 0.41 - e, 0.37)) / (2 * e), rtol=1e-5)
+    np.testing.assert_allclose(gv, (HF.height(h, 0.41, 0.37 + e) - HF.height(h, 0.41, 0.37 - e)) / (2 * e), rtol=1e-5)
 
 
 def test_tessellation_lies_on_the_displaced_surface():
@@ -286,11 +288,11 @@ def test_tessellation_lies_on_the_displaced_surface():
               tx.Sphere(radius=0.5, material=tx.Material(displacement=d)),
               tx.Cylinder(radius=0.5, theta_range=(0, 270), material=tx.Material(displacement=d))]
     for s in shapes:
-        m = D.tessellate(s)
+        m = T.tessellate(s)
         assert m.faces.shape[0] > 0 and np.all(np.isfinite(m.positions))
         uv = m.uvs if not isinstance(s, tx.Quad) else None
         if uv is not None:
-            p, _ = D.displaced_point(s, uv[:, 0], uv[:, 1])
+            p, _ = T.displaced_point(s, uv[:, 0], uv[:, 1])
             np.testing.assert_allclose(m.positions, p, atol=1e-12)
         np.testing.assert_allclose(np.linalg.norm(m.normals, axis=1), 1, atol=1e-12)
 
@@ -418,7 +420,7 @@ def test_bench_scene_files_and_their_height_maps():
         assert (d2.method, d2.steps, d2.refine, d2.adaptive) == ("search", 4, 2, True)
         assert d2.texture is d.texture and (d2.scale, d2.offset) == (d.scale, d.offset)
         assert scene.objects[0].material.displacement is d        # the loaded scene is unchanged
-    assert B._maxmip_applies(scenes["terrain"][0]) and not B._maxmip_applies(scenes["planet"][0])
+    assert B.maxmip_applies(scenes["terrain"][0]) and not B.maxmip_applies(scenes["planet"][0])
 
 
 def test_stored_heights_are_unorm16_and_the_pyramid_stays_conservative():
@@ -428,7 +430,7 @@ def test_stored_heights_are_unorm16_and_the_pyramid_stays_conservative():
     rng = np.random.default_rng(3)
     h = rng.random((9, 13)) * 0.37 - 0.05
     d = tx.Displacement(_tex(h), scale=1.0)
-    buf, index = D.pack_heights([d])
+    buf, index = H.pack_heights([d])
     assert buf.dtype == np.uint16
     hoff, moff, levels = next(iter(index.values()))
     q = buf[hoff:hoff + h.size].reshape(h.shape).astype(np.float64)
@@ -436,13 +438,13 @@ def test_stored_heights_are_unorm16_and_the_pyramid_stays_conservative():
     step = (hi - lo) / 65535
     hq = lo + q * step
     assert np.abs(hq - d.heights()).max() <= 0.5 * step + 1e-12
-    pyr = D.minmax_pyramid(q, d.wrap)
+    pyr = H.minmax_pyramid(q, d.wrap)
     assert len(pyr) == levels
     np.testing.assert_array_equal(buf[moff:moff + pyr[0].size], pyr[0].ravel())
     uu, vv = rng.random(20000), rng.random(20000)
-    val = D.height(hq, uu, vv, d.wrap)
+    val = HF.height(hq, uu, vv, d.wrap)
     cx, cy = np.floor(uu * 13 + 0.5).astype(int), np.floor((1 - vv) * 9 + 0.5).astype(int)
     for lv in pyr:
         assert np.all(val >= lo + lv[cy, cx, 0] * step - 1e-12) and np.all(val <= lo + lv[cy, cx, 1] * step + 1e-12)
         cx, cy = cx // 2, cy // 2
-    assert D.quantize(np.full((2, 2), 0.3)).tolist() == [[0, 0], [0, 0]]
+    assert H.quantize(np.full((2, 2), 0.3)).tolist() == [[0, 0], [0, 0]]

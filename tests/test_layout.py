@@ -3,7 +3,7 @@ as the numpy dtype the host fills it from (the one source of truth)."""
 import numpy as np
 import pyopencl as cl
 
-from texray import layout
+from texray.device import layout
 
 
 def _probe_source():

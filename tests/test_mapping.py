@@ -28,7 +28,7 @@ from hypothesis import strategies as st
 
 from texray.errors import SceneError
 from kernel_harness import build_test_program
-from texray.mapping import (PROJECTION_KINDS, WRAP_MODES, Projection, UVTransform,
+from texray.scene.mapping import (PROJECTION_KINDS, WRAP_MODES, Projection, UVTransform,
                             project_numpy)
 
 KINDS = ("planar", "cylindrical", "spherical")

@@ -22,7 +22,7 @@ def _bump_class():
     if hasattr(tx, "Bump"):
         return tx.Bump
     try:
-        from texray.bump import Bump
+        from texray.scene.bump import Bump
     except ImportError:
         return None
     return Bump
@@ -172,7 +172,7 @@ def test_missing_peers_are_named(monkeypatch):
 
 def test_embree_hits_the_same_triangles_as_texray():
     pytest.importorskip("embreex")
-    from texray.trace import Tracer
+    from texray.renderer.trace import Tracer
     m = procedural.bench_mesh(20_000)
     scene = tx.Scene(camera=tx.Camera(eye=(0.0, 0.4, 3.2), look_at=(0, 0, 0), fov_y=40),
                      lights=[tx.PointLight((3.0, 4.0, 5.0), (40, 40, 40))])

@@ -9,9 +9,9 @@ import pytest
 import texray as tx
 import importlib
 from texray.errors import SceneError
-from texray.render import render
+from texray.renderer import render
 
-render_mod = importlib.import_module("texray.render")
+render_mod = importlib.import_module("texray.renderer.render")
 
 SCENES = ["bench/globe.toml", "bench/mixed.toml", "bench/brick_wall.toml", "roles/roles.toml",
           "bump/normal_mesh.toml", "mappings/projection.toml"]

@@ -26,7 +26,7 @@ import pyopencl as cl
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from texray import layout
+from texray.device import layout
 
 import prim_reference as ref
 from kernel_harness import build_test_program

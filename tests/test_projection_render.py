@@ -6,7 +6,7 @@ import pytest
 import trimesh
 
 import texray as tx
-from texray.mapping import UVTransform, project_numpy
+from texray.scene.mapping import UVTransform, project_numpy
 from reference import scene_hits
 from scenes_for_tests import quad
 

@@ -21,9 +21,9 @@ import pyopencl as cl
 import pytest
 
 import texray as tx
-from texray import layout
+from texray.device import layout
 from texray.compile import compile_scene
-from texray.trace import Tracer
+from texray.renderer.trace import Tracer
 
 from scenes_for_tests import box
 

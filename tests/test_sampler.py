@@ -5,8 +5,8 @@ import pyopencl as cl
 import pytest
 
 import texray as tx
-from texray import layout
-from texray.features import Features, compile_options
+from texray.device import layout
+from texray.device.features import Features, compile_options
 
 
 def _sample_positions(rt, spp, width=3, height=2, seed=7):

@@ -13,8 +13,9 @@ import pytest
 
 import texray as tx
 from texray.compile import compile_scene
-from texray.features import Features, compile_options, max_lights_for, stack_size_for
-from texray.render import generic_features, render
+from texray.device.features import Features, compile_options, max_lights_for, stack_size_for
+from texray.device.features import generic_features
+from texray.renderer import render
 
 SUITE_SMALL = ["globe", "grazing_quad", "mixed"]
 

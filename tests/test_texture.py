@@ -20,8 +20,9 @@ import OpenImageIO as oiio
 import pytest
 import texray as tx
 from scenes_for_tests import quad
-from texray import texture as txt
-from texray.colour import linear_to_srgb, srgb_to_linear
+from texray.compile import textures as packing
+from texray.scene import texture as txt
+from texray.io.colour import linear_to_srgb, srgb_to_linear
 from texray.compile import compile_scene
 from texray.errors import SceneError
 
@@ -229,21 +230,21 @@ def test_textures_beyond_the_device_or_32_bit_offsets(monkeypatch):
     cs = compile_scene(_scene(tx.Material(diffuse=big)))
     with pytest.raises(SceneError, match=r"textures: huge\.exr: 43688 bytes of texels .* exceed the device's "
                                          r"largest buffer, 40000 bytes"):
-        txt.check_device_limits(cs.texels.nbytes, ["huge.exr"], 40000)
-    txt.check_device_limits(cs.texels.nbytes, ["huge.exr"], cs.texels.nbytes)       # fits exactly
-    monkeypatch.setattr(txt, "MAX_TEXELS", 5000)
+        packing.check_device_limits(cs.texels.nbytes, ["huge.exr"], 40000)
+    packing.check_device_limits(cs.texels.nbytes, ["huge.exr"], cs.texels.nbytes)       # fits exactly
+    monkeypatch.setattr(packing, "MAX_TEXELS", 5000)
     with pytest.raises(SceneError, match=r"texture: huge\.exr: .* 5000 that 32-bit texel offsets address"):
         compile_scene(_scene(tx.Material(diffuse=big)))
 
 
 def test_render_checks_the_texel_buffer_against_the_device(monkeypatch):
     import sys
-    r = sys.modules["texray.render"]          # the module (texray.render is also the function)
+    r = sys.modules["texray.renderer.render"]          # the module (texray.render is also the function)
     seen = {}
 
     def check(nbytes, names, max_alloc):
         seen.update(nbytes=nbytes, names=names, max_alloc=max_alloc)
-        txt.check_device_limits(nbytes, names, 100)
+        packing.check_device_limits(nbytes, names, 100)
     monkeypatch.setattr(r, "check_device_limits", check)
     tex = tx.Texture.from_array(np.ones((8, 8, 3)), name="wall.png")
     with pytest.raises(SceneError, match=r"wall\.png: 512 bytes of texels"):

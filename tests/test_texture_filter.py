@@ -30,8 +30,9 @@ import pytest
 import reference as ref
 import texray as tx
 from scenes_for_tests import quad
-from texray import layout
-from texray import texture as txt
+from texray.device import layout
+from texray.compile import textures as packing
+from texray.scene import texture as txt
 from texray.compile import compile_scene
 from kernel_harness import build_test_program
 
@@ -115,7 +116,7 @@ def test_filters_match_numpy(rt, rng, variant):
                                                                   rotation=20))
     entries = [(base.with_options(wrap=w, filter=f, max_aniso=8), "colour") for f in filters
                for w in ("repeat", "clamp", "mirror")]
-    table, texels = txt.pack(entries)
+    table, texels = packing.pack(entries)
     cs = types.SimpleNamespace(textures=table, texels=texels)
     n = 4000
     uv = rng.uniform(-2.5, 3.5, (n, 2))
@@ -359,7 +360,7 @@ def test_label_appears_once_and_composites_with_alpha(device):
 def _aniso_entries(img, max_aniso=16):
     base = tx.Texture.from_array(img, filter="anisotropic", max_aniso=max_aniso)
     entries = [(base, "colour"), (base.with_options(filter="trilinear"), "colour")]
-    table, texels = txt.pack(entries)
+    table, texels = packing.pack(entries)
     return table, texels, types.SimpleNamespace(textures=table, texels=texels)
 
 

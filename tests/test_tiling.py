@@ -12,10 +12,12 @@ import numpy as np
 import pytest
 
 import texray as tx
-from texray import layout
+from texray.device import layout
 from texray.errors import DeviceError, SceneError
-from texray.imageio import read_image
-from texray.render import MAX_TILE_PIXELS, _RAY_BYTES, plan_rows, render, render_to_file
+from texray.io.images import read_image
+from texray.renderer import render, render_to_file
+from texray.renderer.render import RAY_BYTES as _RAY_BYTES
+from texray.renderer.tiling import MAX_TILE_PIXELS, plan_rows
 
 
 def _scene():

@@ -5,7 +5,7 @@ import pytest
 import trimesh
 
 import texray as tx
-from texray.trace import Tracer
+from texray.renderer.trace import Tracer
 from reference import intersect
 
 

@@ -6,10 +6,10 @@ in test_traversal.py and test_extremes.py.)"""
 import numpy as np
 import pytest
 
-from texray.accel import build_scene_bvh
-from texray.bvh import build
-from texray.layout import BVH4_NODE, PRIM_QUAD, PRIM_SPHERE, PRIM_TRIANGLE
-from texray.wide import collapse
+from texray.accel.scene_bvh import build_scene_bvh
+from texray.accel.bvh import build
+from texray.device.layout import BVH4_NODE, PRIM_QUAD, PRIM_SPHERE, PRIM_TRIANGLE
+from texray.accel.wide import collapse
 
 from test_bvh_build import clustered_soup, flat_grid, node_depths, random_soup
 

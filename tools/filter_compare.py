@@ -14,7 +14,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 import texray as tx
-from texray.colour import linear_to_srgb
+from texray.io.colour import linear_to_srgb
 
 ROOT = Path(__file__).resolve().parent.parent
 FILTERS = ("bilinear", "trilinear", "anisotropic")

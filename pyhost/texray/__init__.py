@@ -5,18 +5,21 @@
                      lights=[tx.PointLight(position=(3, 4, 5), intensity=(40, 40, 40))])
     scene.add(tx.Mesh.load("scenes/meshes/vase.obj", material=tx.Material(diffuse=(0.8, 0.2, 0.2))))
     tx.render(scene, width=640, height=480, spp=4).save("out.png")
+
+The package by role (the README's "Architecture" follows a scene through them):
+``scene`` (what users build), ``io`` (files), ``procedural`` (generated meshes and
+textures), ``compile`` (a Scene to flat arrays), ``accel`` (the BVH), ``device``
+(OpenCL, the shared structs, the buffer manifest), ``renderer`` (tiles, launches,
+images) and ``bench`` (``texray bench``).
 """
-from .bump import Bump, NormalMap
-from .displace import Displacement
 from .device import DeviceInfo, devices
 from .errors import BuildError, DeviceError, SceneError, TexrayError
-from .mapping import Projection, UVTransform
-from .render import Image, render, render_to_file
-from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sphere, Texture
-from .texture import Label
-from .transform import Transform
+from .io.scenefile import load_scene
+from .renderer import Image, render, render_to_file
+from .scene import (Bump, Camera, Cylinder, Displacement, Label, Material, Mesh, NormalMap, PointLight, Projection, Quad,
+                    Scene, Sphere, Texture, Transform, UVTransform)
 
-__all__ = ["Bump", "Displacement", "NormalMap", "BuildError", "Camera", "Cylinder", "DeviceError", "DeviceInfo", "Image", "Label", "Material", "Mesh",
-           "PointLight", "Projection", "Quad", "Scene", "SceneError", "Sphere", "TexrayError", "Texture", "Transform", "UVTransform", "devices",
-           "render", "render_to_file"]
+__all__ = ["Bump", "Displacement", "NormalMap", "BuildError", "Camera", "Cylinder", "DeviceError", "DeviceInfo",
+           "Image", "Label", "Material", "Mesh", "PointLight", "Projection", "Quad", "Scene", "SceneError", "Sphere",
+           "TexrayError", "Texture", "Transform", "UVTransform", "devices", "load_scene", "render", "render_to_file"]
 __version__ = "0.1.0"

@@ -4,8 +4,14 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from pathlib import Path
 
+from .bench import main as bench_main
+from .device import devices
 from .errors import TexrayError
+from .io.images import write_exr_layers
+from .renderer import render
+from .scene import Scene
 
 
 class _Progress:
@@ -47,8 +53,6 @@ _non_negative = _int_at_least(0, "an integer >= 0")
 
 
 def _cmd_render(args):
-    from .render import render
-    from .scene import Scene
     scene = Scene.load(args.scene)
     settings = getattr(scene, "render_settings", {})
     width = args.width if args.width is not None else settings.get("width", 640)
@@ -64,9 +68,7 @@ def _cmd_render(args):
         bar.close()
     image.save(args.output)
     if args.aov and not args.output.lower().endswith(".exr"):
-        from pathlib import Path
         aov_path = Path(args.output).with_suffix(".aov.exr")
-        from .imageio import write_exr_layers
         write_exr_layers(aov_path, image.rgb, image.aov)
         print(f"AOVs ({', '.join(args.aov)}) written to {aov_path}")
     s = image.stats
@@ -78,7 +80,6 @@ def _cmd_render(args):
 
 
 def _cmd_devices(args):
-    from .device import devices
     devs = devices()
     if not devs:
         print("no OpenCL devices")
@@ -89,7 +90,6 @@ def _cmd_devices(args):
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv[:1] == ["bench"]:             # the benchmark parses its own options
-        from .bench import main as bench_main
         return bench_main(argv[1:])
     p = argparse.ArgumentParser(prog="texray", description="Ray trace textured scenes with OpenCL.")
     sub = p.add_subparsers(dest="command", required=True)

@@ -65,7 +65,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .layout import BVH_NODE, LEAF_COUNT_MASK, PRIM_TRIANGLE, decode_leaf, encode_leaf
+from ..device.layout import BVH_NODE, LEAF_COUNT_MASK, PRIM_TRIANGLE, decode_leaf, encode_leaf
 
 # Grouped minima use np.minimum.reduceat (cost per run) while there are fewer
 # than this many runs per primitive, np.minimum.at (cost per primitive) above.

@@ -1,7 +1,7 @@
 """The scene's one BVH over primitives of several kinds.
 
 Each kind (triangles, spheres, cylinders, quads) gets its own binned-SAH tree
-(:func:`texray.bvh.build`, leaves homogeneous in kind); when there are several,
+(:func:`texray.accel.bvh.build`, leaves homogeneous in kind); when there are several,
 a small top tree over their root boxes joins them into one node array. A top
 leaf is replaced by the root it stands for, so traversal sees an ordinary
 binary tree whose leaves carry their kind in ``count_kind``.
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import bvh
-from .layout import BVH_NODE
+from ..device.layout import BVH_NODE
 
 
 @dataclass
@@ -23,6 +23,12 @@ class SceneBVH:
     sah_cost: float
     depth: int
     build_seconds: float
+
+
+def triangle_bounds(tri_verts):
+    """(lo, hi) float32 (n, 3) boxes of layout.TRI_VERTS triangles (exact: min/max of float32)."""
+    p0, p1, p2 = tri_verts["p0"], tri_verts["p1"], tri_verts["p2"]
+    return np.minimum(np.minimum(p0, p1), p2), np.maximum(np.maximum(p0, p1), p2)
 
 
 def build_scene_bvh(boxes: dict) -> SceneBVH:

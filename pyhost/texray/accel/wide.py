@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .bvh import node_area
-from .layout import BVH4_NODE
+from ..device.layout import BVH4_NODE
 
 WIDTH = 4
 

@@ -31,6 +31,7 @@ reference), :mod:`.report` (tables, markdown, ``--compare``), :mod:`.peers`
 
 The renderer never imports this package.
 """
+
 from .cli import main
 
 __all__ = ["main"]

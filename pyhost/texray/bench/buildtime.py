@@ -11,6 +11,7 @@ second is warm (what every later run of the same scene pays).
 """
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -18,13 +19,14 @@ import sys
 import tempfile
 import time
 
+from ..compile import compile_scene
+from ..device import runtime
+from ..device.features import compile_options, generic_features
+from ..renderer import render
+from ..scene import Scene
+
 
 def _time_build(scene_path, device, specialize):
-    from ..compile import compile_scene
-    from ..device import runtime
-    from ..features import compile_options
-    from ..render import generic_features, render
-    from ..scene import Scene
     scene = Scene.load(scene_path)
     cs = compile_scene(scene)
     features = cs.features if specialize else generic_features(cs.features)
@@ -65,7 +67,6 @@ def measure(scene_path, device=None, specialize=True, timeout=600) -> dict:
 
 
 def main(argv=None):
-    import argparse
     ap = argparse.ArgumentParser(prog="python -m texray.bench.buildtime", description=__doc__.splitlines()[0])
     ap.add_argument("scene")
     ap.add_argument("--device")

@@ -16,6 +16,10 @@ import time
 from pathlib import Path
 
 from .. import __version__
+from ..compile import compile_scene
+from ..device import devices, select_device
+from ..scene import Scene
+from .compare_peers import bench_peers
 from .rays import bench_bvh, bench_mesh_scene, bench_rays
 from .report import compare, markdown, print_device
 from .suite import SUITE, bench_scene, build_times, local_size_sweep, program_variants, scenes_dir, suite_paths
@@ -95,9 +99,6 @@ def main(argv=None):
         return 0
     if args.repeat < 1:
         ap.error("--repeat must be >= 1")
-    from ..compile import compile_scene
-    from ..device import devices, select_device
-    from ..scene import Scene
     chosen = args.device or [d.index for d in devices() if d.type in ("cpu", "gpu")]
     chosen = [int(d) if isinstance(d, str) and d.isdigit() else d for d in chosen]
     size = _size(args.size) if args.size else None
@@ -161,7 +162,6 @@ def main(argv=None):
             r["local_sizes"] = {"scene": "mixed", "size": f"{w}x{h}", "spp": 4,
                                 "frame_s": local_size_sweep(sc, cs, dev, w, h, 4, args.repeat, sizes)}
         if args.peers:
-            from .compare_peers import bench_peers
             peer_scenes = list(suite_paths(["globe", "grazing_quad", "brick_wall", "textured_meshes"]).values())
             measured = (r["rays"], work, results["bvh"]["scene_compile_s"]) if work is not None else None
             r["peers"] = bench_peers(dev, args.repeat, args.triangles, args.rays or 1024, peer_scenes,

@@ -9,12 +9,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import procedural
+from ..accel import bvh
+from ..accel.scene_bvh import triangle_bounds
+from ..compile import compile_scene
+from ..renderer.trace import Tracer
+from ..scene import Camera, Mesh, PointLight, Scene
+from .peers import primary_rays, shadow_rays
 from .suite import median_spread
 
 
 def bench_mesh_scene(triangles):
-    from .. import procedural
-    from ..scene import Camera, Mesh, PointLight, Scene
     m = procedural.bench_mesh(triangles)
     scene = Scene(camera=Camera(eye=(0.0, 0.4, 3.2), look_at=(0, 0, 0), fov_y=40),
                   lights=[PointLight((3.0, 4.0, 5.0), (40, 40, 40))])
@@ -24,8 +29,6 @@ def bench_mesh_scene(triangles):
 
 def bench_bvh(scene, repeat):
     """(compiled scene, BVH figures): the scene's compile time and the SAH build of its triangles."""
-    from .. import bvh
-    from ..compile import compile_scene, triangle_bounds
     t0 = time.perf_counter()
     cs = compile_scene(scene)
     compile_s = time.perf_counter() - t0
@@ -55,8 +58,6 @@ class RayWork:
 def bench_rays(cs, scene, device, size, repeat):
     """(figures, RayWork): closest-hit Mrays/s of size^2 pixel-centre primary rays and
     any-hit Mrays/s of shadow rays from their hits toward the first light."""
-    from .peers import primary_rays, shadow_rays
-    from ..trace import Tracer
     tracer = Tracer(cs, device)
     org, dirs = primary_rays(scene.camera, size)
     primary, shadow, hits = [], [], None

@@ -11,6 +11,12 @@ from __future__ import annotations
 import statistics
 from pathlib import Path
 
+from ..compile import compile_scene
+from ..device.features import compile_options
+from ..renderer import render
+from ..scene import Scene
+from .buildtime import measure
+
 # The suite, in the order it runs. Each is scenes/bench/<name>.toml.
 SUITE = ("mesh1m", "globe", "grazing_quad", "mixed", "brick_wall", "bump_globe")
 
@@ -60,7 +66,6 @@ def frame_stats(runs, samples, shadow_rays):
 def bench_scene(scene, compiled, device, width, height, spp, repeat, generic=True, local_size=None):
     """Frames of one scene on one device: the specialized program (fused pipeline, and the
     staged one for the per-stage times) and the generic program (fused)."""
-    from ..render import render
     samples = width * height * spp
     shadow_rays = samples * len(compiled.lights) if compiled.features.shadows else 0
     out = {"width": width, "height": height, "spp": spp, "lights": int(len(compiled.lights))}
@@ -86,7 +91,6 @@ def bench_scene(scene, compiled, device, width, height, spp, repeat, generic=Tru
 
 def build_times(path, device, generic=True):
     """Cold and warm build seconds of the scene's specialized (and generic) program."""
-    from .buildtime import measure
     out = {"specialized": measure(path, device, specialize=True)}
     if generic:
         out["generic"] = measure(path, device, specialize=False)
@@ -95,9 +99,6 @@ def build_times(path, device, generic=True):
 
 def program_variants(paths):
     """The distinct programs (feature sets) that rendering every scene in ``paths`` builds."""
-    from ..compile import compile_scene
-    from ..features import compile_options
-    from ..scene import Scene
     seen = {}
     for p in paths:
         key = tuple(sorted(compile_options(compile_scene(Scene.load(p)).features).items()))
@@ -108,7 +109,6 @@ def program_variants(paths):
 def local_size_sweep(scene, compiled, device, width, height, spp, repeat, sizes):
     """Frame time per work-group size (0 = the driver's choice), interleaved over repeats
     so that machine noise hits every size alike."""
-    from ..render import render
     times = {s: [] for s in sizes}
     for s in sizes:       # warm-up: PoCL generates code per local size
         render(scene, width, height, spp, device=device, compiled=compiled, local_size=s)

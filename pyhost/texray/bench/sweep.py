@@ -15,11 +15,17 @@ steps) add series here; the table, JSON, report and plot take them as they are.
 from __future__ import annotations
 
 import copy
+import time
 import dataclasses
 
 import numpy as np
 
+from ..compile import compile_scene
+from ..errors import SceneError
+from ..renderer import render
+from ..scene import Bump, Displacement, Scene
 from .suite import median_spread
+from .suite import suite_paths
 
 SPP_VALUES = (1, 2, 4, 8, 16, 32, 64)
 FILTER_SPP = (1, 4, 16)
@@ -65,7 +71,6 @@ def _with_role(scene, role, make):
 def with_bump_delta(scene, texels):
     """A copy of ``scene`` whose bump maps all use the step ``texels`` (texels of each height
     texture, or "analytic"); the scene itself is not changed."""
-    from ..bump import Bump
 
     def make(b):
         delta = "analytic" if texels == "analytic" else min(0.5, texels / max(b.texture.shape))
@@ -95,7 +100,6 @@ def sweep_scene(scene, compiled, device, width, height, repeat, ref_spp=256, spp
     """{"reference": ..., "series": {name: [point]}}, point = label, settings, time, errors.
     A displaced scene is swept by :func:`sweep_displacement` (``ref_spp``, ``spp_values`` and
     ``filter_spp`` do not apply)."""
-    from ..render import render
     if displaced(scene):
         return sweep_displacement(scene, device, width, height, repeat)
     ref_kw = {"texture_filter": "bilinear"} if compiled.textures is not None else {}
@@ -160,7 +164,7 @@ def plot(sweeps, path):
     return True
 
 
-# --- Displacement (issue 7): the search's N and M, maxmip, against the tessellation ----
+# --- Displacement: the search's N and M, maxmip, against the tessellation ----
 DISP_STEPS = (4, 8, 16, 32, 64, 128)
 DISP_REFINE = (0, 4, 8)
 
@@ -178,15 +182,12 @@ def with_displacement(scene, method, **knobs):
     """A copy of ``scene`` whose displacement maps all use ``method`` and ``knobs`` (steps,
     refine, adaptive, resolution), keeping each map's texture, scale and offset; the
     scene itself is not changed."""
-    from ..displace import Displacement
     return _with_role(scene, "displacement", lambda d: Displacement(d.texture, scale=d.scale, offset=d.offset,
                                                                     method=method, **knobs))
 
 
-def _maxmip_applies(scene):
+def maxmip_applies(scene):
     """maxmip displaces planar parallelogram quads only: does every displaced object take it?"""
-    from ..compile import compile_scene
-    from ..errors import SceneError
     try:
         compile_scene(with_displacement(scene, "maxmip"))
     except SceneError:
@@ -198,8 +199,6 @@ def displacement_scenes(names=DISP_SCENES):
     """The displacement sweep's scenes, loaded from scenes/bench/: {name: (scene, factory)},
     factory(method, **knobs) -> the scene with every displacement map set to that method
     (:func:`with_displacement`)."""
-    from .suite import suite_paths
-    from ..scene import Scene
     out = {}
     for name, path in suite_paths(list(names)).items():
         scene = Scene.load(path)
@@ -218,7 +217,7 @@ def displacement_series(scene):
     out.append(("search adaptive M=8", [(f"search adaptive N={n} M=8",
                                          {"method": "search", "steps": n, "refine": 8, "adaptive": True})
                                         for n in DISP_ADAPTIVE_STEPS]))
-    if _maxmip_applies(scene):
+    if maxmip_applies(scene):
         out.append(("maxmip", [("maxmip", {"method": "maxmip"})]))
     out.append(("tessellate", [(f"tessellate {r} vertex/texel", {"method": "tessellate", "resolution": r})
                                for r in DISP_TESSELLATIONS]))
@@ -243,9 +242,7 @@ def sweep_displacement(scene, device, width, height, repeat):
     ``device_mib``; RMSE (linear RGB) against the reference, and ``wrong_hit``, the
     fraction of pixels whose first hit differs from the reference's (another object, a
     hit against a miss, or depth off by more than 1%)."""
-    import time
 
-    from ..render import render
     series = displacement_series(scene)
     ref_scene = with_displacement(scene, "tessellate", resolution=DISP_REF_RESOLUTION)
     t0 = time.perf_counter()

@@ -53,6 +53,13 @@ class Features:
         return True
 
 
+def generic_features(needed: Features) -> Features:
+    """The generic program's features for a scene that needs ``needed``: every
+    capability compiled in; the render settings (shadows, AOVs) kept."""
+    g = Features.generic(stack_size=max(128, needed.stack_size))
+    return dataclasses.replace(g, shadows=needed.shadows, aovs=needed.aovs)
+
+
 def stack_size_for(depth: int) -> int:
     """Smallest of 32, 64, 128, ... that holds a traversal of a tree of ``depth`` levels
     (few distinct values, so few program variants)."""

@@ -77,7 +77,7 @@ TRI_SHADE = np.dtype([
 TRI_HAS_NORMALS = 1
 TRI_HAS_UVS = 2
 
-# --- Analytic primitives (issue 3) -------------------------------------------
+# --- Analytic primitives --------------------------------------------------------
 # Frames are orthonormal: axis_x (phi = 0 / theta = 0 direction) and axis_z
 # (the sphere's pole theta = 0, the cylinder's axis); y = z cross x.
 SPHERE = np.dtype([
@@ -109,7 +109,7 @@ QUAD_SHADE = np.dtype([
     ("material", "<u4"), ("object", "<u4"), ("prim", "<u4"), ("flags", "<u4"),
 ])
 
-# --- Displaced primitive (issue 7): 160 bytes --------------------------------
+# --- Displaced primitive: 160 bytes -------------------------------------------
 # shape DISP_QUAD: a planar parallelogram P(u, v) = p + u e0 + v e1, n = unit e0 x e1.
 # shape DISP_SPHERE / DISP_CYLINDER: centre / origin p, frame e0 = axis_x,
 # e1 = axis_z x axis_x, n = axis_z; cylinder z and theta (radians) ranges.
@@ -168,7 +168,12 @@ TEXTURE = np.dtype([
     ("m1", "<f4", (2,)), ("levels", "<u4"), ("filter", "<u4"),
     ("max_aniso", "<u4"), ("pad0", "<u4", (3,)),
 ])
-FILTER_NEAREST, FILTER_BILINEAR, FILTER_TRILINEAR, FILTER_ANISOTROPIC = 0, 1, 2, 3     # texray.texture.FILTERS
+# Codes the device switches on, by name (kernels switch on the generated TX_WRAP_*,
+# TX_MAP_* and FILTER_* macros; the host looks the names up here).
+FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}      # TextureInfo.filter
+WRAP_MODES = {"repeat": 0, "clamp": 1, "mirror": 2}                           # TextureInfo.wrap, Displaced.wrap
+PROJECTION_KINDS = {"planar": 0, "cylindrical": 1, "spherical": 2}            # ObjectInfo.mapping (-1: none)
+FILTER_NEAREST, FILTER_BILINEAR, FILTER_TRILINEAR, FILTER_ANISOTROPIC = (FILTERS[k] for k in FILTERS)
 
 # --- Per-object data: 128 bytes -----------------------------------------------
 # mapping: -1 = the primitive's own uv, else kernels/mapping.h TX_MAP_* with
@@ -203,7 +208,7 @@ CAMERA = np.dtype([
 
 # --- Wavefront records between kernel stages --------------------------------
 RAY = np.dtype([("org", "<f4", (3,)), ("tmin", "<f4"), ("dir", "<f4", (3,)), ("tmax", "<f4")])
-# prim = index into the leaf-ordered triangle array, 0xffffffff = miss.
+# prim: the primitive kind << HIT_KIND_SHIFT | its index in that kind's leaf-ordered array; 0xffffffff = miss.
 HIT = np.dtype([("t", "<f4"), ("b1", "<f4"), ("b2", "<f4"), ("prim", "<u4")])
 # Everything the lighting stage needs about a hit; produced by the surface stage.
 SURFACE = np.dtype([

@@ -1,13 +1,16 @@
-"""Image files through OpenImageIO: reading textures, writing renders."""
+"""Image files through OpenImageIO (all of texray's image I/O): reading textures,
+writing renders."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 
+import OpenImageIO as oiio
+
+from ..errors import SceneError
+from ..validate import file_path, output_path
 from .colour import linear_to_srgb
-from .errors import SceneError
-from .validate import file_path, output_path
 
 _LINEAR_FORMATS = {".exr", ".hdr", ".pfm"}
 
@@ -18,7 +21,6 @@ def read_image(path, field="texture"):
     8/16-bit integer files come back scaled to [0, 1]. Raises SceneError
     naming the file for a missing, unreadable or empty image.
     """
-    import OpenImageIO as oiio
     path = file_path(path, "", field)
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
@@ -35,6 +37,51 @@ def read_image(path, field="texture"):
         inp.close()
     pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
     return pixels, colorspace
+
+
+def read_texture_file(path, field):
+    """(raw float32 (H, W, C) with straight alpha, the file's colour-space name, whether the
+    pixels are half/float)."""
+    field = f"{field}.file"
+    path = file_path(path, "", field)
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)       # the file's own colour values, not premultiplied
+    inp = oiio.ImageInput.open(str(path), config)
+    if inp is None:
+        raise SceneError(f"{field}: cannot read image {path} (corrupt, truncated or not an image): "
+                         f"{_first_line(oiio.geterror()) or 'unknown format'}")
+    try:
+        spec = inp.spec()
+        if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
+            raise SceneError(f"{field}: image {path} has no pixels ({spec.width}x{spec.height}x{spec.nchannels})")
+        if spec.nchannels > 4:
+            raise SceneError(f"{field}: {path} has {spec.nchannels} channels; textures take 1 to 4")
+        pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
+        if pixels is None or inp.has_error:
+            raise SceneError(f"{field}: cannot decode image {path} (corrupt or truncated): "
+                             f"{_first_line(inp.geterror()) or 'read failed'}")
+        colorspace = spec.get_string_attribute("oiio:ColorSpace", "")
+        is_float = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
+        associated = spec.alpha_channel >= 0 and not spec.get_int_attribute("oiio:UnassociatedAlpha", 0)
+    finally:
+        inp.close()
+    pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+    if not np.all(np.isfinite(pixels)):
+        bad = np.argwhere(~np.isfinite(pixels))[0]
+        raise SceneError(f"{field}: {path}: non-finite texel {pixels[tuple(bad)]} at row {bad[0]}, "
+                         f"column {bad[1]}, channel {bad[2]}")
+    if associated:
+        # EXR (and any file whose alpha OIIO reports associated) stores colour premultiplied:
+        # divide it out so that every texture holds straight alpha; a = 0 keeps colour 0.
+        a = pixels[:, :, spec.alpha_channel:spec.alpha_channel + 1]
+        colour = [c for c in range(spec.nchannels) if c != spec.alpha_channel]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pixels[:, :, colour] = np.where(a > 0, pixels[:, :, colour] / a, 0.0)
+    return pixels, colorspace, is_float
+
+
+def _first_line(msg):
+    return (msg or "").strip().splitlines()[0] if (msg or "").strip() else ""
 
 
 _SRGB_FORMATS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".tga")
@@ -57,7 +104,6 @@ def _encode(rgb, fmt):
 
 
 def _open_output(path, width, height, channels, fmt):
-    import OpenImageIO as oiio
     out = oiio.ImageOutput.create(str(path))
     if out is None:
         raise SceneError(f"output: cannot create {path}: {oiio.geterror()}")
@@ -87,7 +133,6 @@ def write_image(path, rgb):
 def write_exr_layers(path, rgb, aovs):
     """One float32 EXR holding R, G, B and every AOV as channels named ``name.x``/``.y``/``.z``
     (``uv.u``, ``uv.v``; one-channel AOVs by their name)."""
-    import OpenImageIO as oiio
     path = output_path(path)
     names, planes = ["R", "G", "B"], [np.asarray(rgb, np.float32)]
     for name, a in aovs.items():

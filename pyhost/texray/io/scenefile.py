@@ -15,14 +15,13 @@ try:
 except ModuleNotFoundError:        # Python < 3.11
     import tomli as tomllib
 
-from .bump import Bump, NormalMap
-from .displace import Displacement
-from .errors import SceneError
-from . import validate as V
-from .scene import Camera, Cylinder, Material, Mesh, PointLight, Quad, Scene, Sphere, Texture
-from .texture import DEFAULT_MAX_ANISO, Label
-from .mapping import WRAP_MODES, Projection, UVTransform
-from .transform import Transform
+from ..errors import SceneError
+from ..procedural import meshes as _meshes
+from ..scene import (Bump, Camera, Cylinder, Displacement, Label, Material, Mesh, NormalMap, PointLight, Projection,
+                     Quad, Scene, Sphere, Texture, Transform, UVTransform)
+from ..scene.mapping import WRAP_MODES
+from ..scene.texture import DEFAULT_MAX_ANISO
+from .. import validate as V
 
 _NUM = (int, float)
 _VEC = (list,)
@@ -240,7 +239,7 @@ def _object(ob, where, materials, base):
 
 # Procedural meshes a scene file may name: generator -> (function, {param: type}).
 def _generators():
-    from . import procedural as p
+    p = _meshes
     return {
         "bench_mesh": (p.bench_mesh, {"target_triangles": int, "amplitude": _NUM, "seed": int}),
         "uv_sphere": (p.uv_sphere, {"n_lon": int, "n_lat": int, "radius": _NUM}),

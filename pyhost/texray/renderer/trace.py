@@ -10,11 +10,10 @@ from dataclasses import dataclass
 import numpy as np
 import pyopencl as cl
 
-from . import layout
-from .compile import CompiledScene, compile_scene
-from .device import runtime
-from .features import compile_options
-from .render import _Uploaded
+from ..compile import CompiledScene, compile_scene
+from ..device import layout, runtime
+from ..device.buffers import Uploaded
+from ..device.features import compile_options
 
 
 @dataclass
@@ -22,7 +21,7 @@ class Hits:
     t: np.ndarray       # float32, tmax for a miss
     b1: np.ndarray
     b2: np.ndarray
-    prim: np.ndarray    # int64 index into CompiledScene.triangles, -1 for a miss
+    prim: np.ndarray    # int64 Hit.prim (kind << layout.HIT_KIND_SHIFT | leaf-order index), -1 for a miss
     seconds: float      # device time of the kernel (profiling events)
 
 
@@ -34,7 +33,7 @@ class Tracer:
         self.compiled = cs
         self.rt = runtime(device)
         self.program = self.rt.program(compile_options(cs.features))
-        self.up = _Uploaded(self.rt.context, cs)
+        self.up = Uploaded(self.rt.context, cs)
         self._k_closest = cl.Kernel(self.program, "intersect")
         self._k_any = cl.Kernel(self.program, "occluded")
 

@@ -9,9 +9,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from . import layout
-from .errors import SceneError
-from . import validate as V
+from ..device import layout
+from ..errors import SceneError
+from .. import validate as V
+from .texture import Texture
 
 CONVENTIONS = {"opengl": 0, "directx": layout.TX_NORMAL_DIRECTX}
 SPACES = {"tangent": 0, "object": layout.TX_NORMAL_OBJECT}
@@ -20,7 +21,6 @@ SPACES = {"tangent": 0, "object": layout.TX_NORMAL_OBJECT}
 def data_texture(texture, where):
     """The Texture of a data role: a Texture, or a path loaded as one. Data roles read the
     stored values whatever the texture's colorspace (texray.texture, kind "data")."""
-    from .texture import Texture
     if isinstance(texture, (str, Path)):
         return Texture.load(texture, colorspace="linear", field=f"{where}texture")
     if not isinstance(texture, Texture):

@@ -36,11 +36,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import SceneError
-from . import validate as V
+from ..device import layout
+from ..errors import SceneError
+from .. import validate as V
 
-WRAP_MODES = {"repeat": 0, "clamp": 1, "mirror": 2}           # kernels/wrap.h TX_WRAP_*
-PROJECTION_KINDS = {"planar": 0, "cylindrical": 1, "spherical": 2}   # kernels/mapping.h TX_MAP_*
+WRAP_MODES = layout.WRAP_MODES                # name -> the device's TX_WRAP_* code
+PROJECTION_KINDS = layout.PROJECTION_KINDS    # name -> the device's TX_MAP_* code
 ROTATION_PIVOT = (0.5, 0.5)
 
 _PARALLEL_TOL = 1e-6     # |x - (x.z) z| / |x| below this: x_axis is parallel to z_axis

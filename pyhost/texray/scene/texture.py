@@ -1,4 +1,5 @@
-"""Textures: loading, colour spaces per role, MIP pyramids and device packing.
+"""Textures: loading, colour spaces per role and MIP pyramids (device packing:
+texray.compile.textures).
 
 A :class:`Texture` keeps the values as stored (raw, 1-4 channels, float32) and
 the colour space they are encoded in. What the device gets depends on the
@@ -30,11 +31,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .colour import srgb_to_linear
-from .errors import SceneError
-from . import validate as V
+from ..device import layout
+from ..errors import SceneError
+from ..io.colour import srgb_to_linear
+from ..io.images import read_texture_file
+from .. import procedural as _procedural_module
+from ..procedural.textures import check_texture_params
+from .. import validate as V
+from .mapping import WRAP_MODES, UVTransform
 
-FILTERS = {"nearest": 0, "bilinear": 1, "trilinear": 2, "anisotropic": 3}   # layout FILTER_* / TextureInfo.filter
+FILTERS = layout.FILTERS                  # name -> TextureInfo.filter (the device's FILTER_*)
 MIP_FILTERS = ("trilinear", "anisotropic")       # the filters that read MIP levels
 DEFAULT_MAX_ANISO = 16        # probes of an anisotropic lookup (GPUs' usual maximum, 16:1)
 MAX_ANISO_LIMIT = 64          # beyond this a probe costs more than it adds at any angle a pixel sees
@@ -81,7 +87,6 @@ class Texture:
 
     def validate(self):
         """Check the options (they may have been changed since the texture was made)."""
-        from .mapping import WRAP_MODES, UVTransform
         field, name = self.field, self.name
         V.one_of(self.wrap, tuple(WRAP_MODES), "wrap", f"{field}.")
         if not isinstance(self.filter, str) or self.filter not in FILTERS:
@@ -108,9 +113,9 @@ class Texture:
         unreadable, truncated or empty file, an unknown colour space or non-finite texels
         raise SceneError naming the file."""
         V.one_of(colorspace, COLORSPACES, "colorspace", f"{field}.")
-        pixels, file_cs, is_float = _read(path, field)
+        pixels, file_cs, is_float = read_texture_file(path, field)
         if colorspace == "auto":
-            colorspace = _auto_colorspace(file_cs, is_float, path, field)
+            colorspace = auto_colorspace(file_cs, is_float, path, field)
         return cls(pixels, str(path), colorspace, wrap, uv_transform, filter, field, max_aniso)
 
     @classmethod
@@ -129,7 +134,6 @@ class Texture:
         sRGB-encoded display values, heights and noise linear data."""
         V.one_of(kind, tuple(PROCEDURAL), "procedural", "texture.")
         make, colorspace = PROCEDURAL[kind]
-        from .procedural import check_texture_params
         check_texture_params(make, params, f"texture.procedural: {kind}: ")
         try:
             pixels = make(**params)
@@ -286,54 +290,7 @@ def level_sizes(height, width):
     return out
 
 
-# --- files -------------------------------------------------------------------
-def _read(path, field):
-    """(raw float32 (H, W, C) with straight alpha, the file's colour-space name, whether the
-    pixels are half/float)."""
-    import OpenImageIO as oiio
-    field = f"{field}.file"
-    path = V.file_path(path, "", field)
-    config = oiio.ImageSpec()
-    config.attribute("oiio:UnassociatedAlpha", 1)       # the file's own colour values, not premultiplied
-    inp = oiio.ImageInput.open(str(path), config)
-    if inp is None:
-        raise SceneError(f"{field}: cannot read image {path} (corrupt, truncated or not an image): "
-                         f"{_first_line(oiio.geterror()) or 'unknown format'}")
-    try:
-        spec = inp.spec()
-        if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
-            raise SceneError(f"{field}: image {path} has no pixels ({spec.width}x{spec.height}x{spec.nchannels})")
-        if spec.nchannels > 4:
-            raise SceneError(f"{field}: {path} has {spec.nchannels} channels; textures take 1 to 4")
-        pixels = inp.read_image(0, 0, 0, spec.nchannels, "float")
-        if pixels is None or inp.has_error:
-            raise SceneError(f"{field}: cannot decode image {path} (corrupt or truncated): "
-                             f"{_first_line(inp.geterror()) or 'read failed'}")
-        colorspace = spec.get_string_attribute("oiio:ColorSpace", "")
-        is_float = spec.format.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
-        associated = spec.alpha_channel >= 0 and not spec.get_int_attribute("oiio:UnassociatedAlpha", 0)
-    finally:
-        inp.close()
-    pixels = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
-    if not np.all(np.isfinite(pixels)):
-        bad = np.argwhere(~np.isfinite(pixels))[0]
-        raise SceneError(f"{field}: {path}: non-finite texel {pixels[tuple(bad)]} at row {bad[0]}, "
-                         f"column {bad[1]}, channel {bad[2]}")
-    if associated:
-        # EXR (and any file whose alpha OIIO reports associated) stores colour premultiplied:
-        # divide it out so that every texture holds straight alpha; a = 0 keeps colour 0.
-        a = pixels[:, :, spec.alpha_channel:spec.alpha_channel + 1]
-        colour = [c for c in range(spec.nchannels) if c != spec.alpha_channel]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            pixels[:, :, colour] = np.where(a > 0, pixels[:, :, colour] / a, 0.0)
-    return pixels, colorspace, is_float
-
-
-def _first_line(msg):
-    return (msg or "").strip().splitlines()[0] if (msg or "").strip() else ""
-
-
-def _auto_colorspace(name, is_float, path, field):
+def auto_colorspace(name, is_float, path, field):
     n = name.lower()
     if not n:
         return "linear" if is_float else "srgb"
@@ -347,7 +304,7 @@ def _auto_colorspace(name, is_float, path, field):
 
 # --- procedural ----------------------------------------------------------------
 def _procedural():
-    from . import procedural as p
+    p = _procedural_module
     return {
         "checker": (p.checker, "srgb"), "bricks": (p.bricks, "srgb"), "bricks_height": (p.bricks_height, "linear"),
         "noise": (p.value_noise, "linear"), "wood": (p.wood, "srgb"), "marble": (p.marble, "srgb"),
@@ -356,58 +313,6 @@ def _procedural():
 
 
 PROCEDURAL = _procedural()
-
-
-# --- device packing --------------------------------------------------------------
-def pack(entries):
-    """One texture table and one shared texel buffer for ``entries`` = [(Texture, kind)],
-    in table order; ``(layout.TEXTURE array, float16 texels (T*4,))``.
-
-    Each distinct (pixels, kind) is packed once, with its MIP levels when some entry using
-    it filters trilinearly or anisotropically (its other entries read level 0). Levels are contiguous: level l
-    starts ``sum_{k<l} w_k h_k`` texels after the entry's ``offset`` (kernels/texture.h
-    computes this from width and height). Raises SceneError when the texels exceed the
-    32-bit texel offsets."""
-    from . import layout
-    from .mapping import WRAP_MODES, UVTransform
-    keys, mip = [], {}
-    for t, kind in entries:
-        key = (id(t._pixels), kind)
-        if key not in mip:
-            keys.append((key, t, kind))
-            mip[key] = False
-        mip[key] |= t.filter in MIP_FILTERS
-    blocks, offsets, nlevels, total = [], {}, {}, 0
-    for key, t, kind in keys:
-        levels = t.levels(kind, mip=mip[key])
-        offsets[key], nlevels[key] = total, len(levels)
-        total += sum(lv.shape[0] * lv.shape[1] for lv in levels)
-        if total >= MAX_TEXELS:
-            raise SceneError(f"{t.field}: {t.name}: the scene's textures need {total} texels or more, beyond the "
-                             f"{MAX_TEXELS} that 32-bit texel offsets address")
-        blocks.extend(lv.reshape(-1, 4) for lv in levels)
-    table = np.zeros(len(entries), layout.TEXTURE)
-    for i, (t, kind) in enumerate(entries):
-        key = (id(t._pixels), kind)
-        table[i]["offset"] = offsets[key]
-        table[i]["height"], table[i]["width"] = t.shape
-        table[i]["wrap"] = WRAP_MODES[t.wrap]
-        table[i]["filter"] = FILTERS[t.filter]
-        table[i]["levels"] = nlevels[key] if t.filter in MIP_FILTERS else 1
-        table[i]["max_aniso"] = t.max_aniso
-        table[i]["m0"], table[i]["m1"] = (t.uv_transform or UVTransform()).device_args()
-    # Half floats top out at 65504: clamp so that bright HDR texels stay finite.
-    texels = np.clip(np.concatenate(blocks), -HALF_MAX, HALF_MAX).astype(np.float16).ravel()
-    return table, texels
-
-
-def check_device_limits(texel_bytes, names, max_alloc, where="textures"):
-    """SceneError when the texel buffer (``texel_bytes``) is larger than the device's largest
-    buffer (``max_alloc``, CL_DEVICE_MAX_MEM_ALLOC_SIZE). ``names``: the textures, for the message."""
-    if texel_bytes > max_alloc:
-        raise SceneError(f"{where}: {', '.join(names)}: {texel_bytes} bytes of texels (MIP levels included) exceed "
-                         f"the device's largest buffer, {max_alloc} bytes (CL_DEVICE_MAX_MEM_ALLOC_SIZE); use "
-                         "smaller images or filter='bilinear'")
 
 
 class Label:
@@ -420,7 +325,6 @@ class Label:
     [0.375, 0.625]^2. Textures without alpha are opaque labels."""
 
     def __init__(self, texture, uv_transform=None):
-        from .mapping import UVTransform
         if not isinstance(texture, Texture):
             raise SceneError(f"label.texture: expected a texray.Texture, got {texture!r}")
         if uv_transform is not None and not isinstance(uv_transform, UVTransform):

@@ -5,8 +5,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import SceneError
-from .validate import COORD_LIMIT, FLT_MAX, show, vector
+from ..errors import SceneError
+from ..validate import COORD_LIMIT, FLT_MAX, show, vector
 
 
 def _vec3(value, field, where="", positive=False, limit=FLT_MAX):
@@ -42,15 +42,3 @@ class Transform:
         m[:3, :3] = rz @ ry @ rx @ np.diag(s)
         m[:3, 3] = t
         return m
-
-
-def apply_points(m, p):
-    """Transform (N, 3) points by the 4x4 matrix m."""
-    return p @ m[:3, :3].T + m[:3, 3]
-
-
-def apply_normals(m, n):
-    """Transform (N, 3) normals by the inverse transpose of m and renormalize (zero stays zero)."""
-    out = n @ np.linalg.inv(m[:3, :3])
-    length = np.linalg.norm(out, axis=1, keepdims=True)
-    return np.divide(out, length, out=np.zeros_like(out), where=length > 0)

@@ -13,6 +13,7 @@ Selection (``device=`` of :func:`texray.render`):
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import os
 import threading
 import time
@@ -30,15 +31,14 @@ os.environ.setdefault("POCL_WORK_GROUP_METHOD", "loops")
 import numpy as np  # noqa: E402
 import pyopencl as cl  # noqa: E402
 
-from .errors import BuildError, DeviceError
-from . import layout
+from ..errors import BuildError, DeviceError
+from . import buffers, layout
 
 
 
 def _kernel_dir() -> Path:
     """Where the .cl sources are: the installed package ``texray.kernels``, or
     the repository's ``kernels/`` when running from a source tree."""
-    import importlib.util
     try:
         spec = importlib.util.find_spec("texray.kernels")
     except ImportError:
@@ -47,7 +47,7 @@ def _kernel_dir() -> Path:
         for loc in spec.submodule_search_locations:
             if (Path(loc) / "texray.cl").is_file():
                 return Path(loc)
-    repo = Path(__file__).resolve().parents[2] / "kernels"
+    repo = Path(__file__).resolve().parents[3] / "kernels"
     if (repo / "texray.cl").is_file():
         return repo
     raise DeviceError("texray's OpenCL sources (texray.cl) were not found: the installation is incomplete")
@@ -200,7 +200,7 @@ class Runtime:
         process; the driver's or pyopencl's cache on disk makes the next process's
         build cheap as well. Raises BuildError with the compiler log on failure.
         """
-        source = layout.opencl_declarations() + '#include "texray.cl"\n'
+        source = opencl_prelude() + '#include "texray.cl"\n'
         options = ([f"-D{k}={int(v)}" for k, v in sorted(defines.items())] + ["-I", str(KERNEL_DIR)]
                    + ["-cl-std=CL1.2"] + list(extra_options))
         key = (hashlib.sha256((source + _kernel_sources_digest()).encode()).hexdigest(), tuple(options))
@@ -216,6 +216,12 @@ class Runtime:
                 self.build_log.append((tuple(options), time.perf_counter() - t0))
                 self._programs[key] = prg
         return prg
+
+
+def opencl_prelude() -> str:
+    """What the host generates ahead of the kernel sources: the structs and constants of
+    texray.device.layout and the parameter lists of texray.device.buffers."""
+    return layout.opencl_declarations() + buffers.opencl_macros()
 
 
 @lru_cache(maxsize=1)
