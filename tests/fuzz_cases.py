@@ -11,7 +11,7 @@ Layout of this module:
   ``integer(lo, hi)``, ``choice(seq)``, ``floats(lo, hi)``, ``boolean(p)``, with two
   backends: :class:`RandomChooser` over ``random.Random`` (``tools/fuzz.py``: case k of
   campaign seed S is ``RandomChooser(f"{S}:{k}")``, so ``--seed S --case k`` replays it) and
-  :class:`HypothesisChooser` over hypothesis's ``data.draw`` (``tests/test_fuzz.py``, so
+  :class:`HypothesisChooser` over hypothesis's ``data.draw`` (``tests/fuzz/test_fuzz.py``, so
   hypothesis shrinks findings).
 * **Generators**, one per family (:data:`FAMILIES`): ``scene_file`` (mutated shipped TOML
   scenes, through ``Scene.load`` + ``render`` or the CLI), ``geometry`` (the API's

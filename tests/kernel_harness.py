@@ -2,8 +2,6 @@
 functions one at a time against float64 references."""
 import pyopencl as cl
 
-from texray.device import layout
-from texray.device import KERNEL_DIR
 
 _cache = {}
 
@@ -26,14 +24,11 @@ class Kernels:
 
 
 def build_test_program(rt, headers, source, options=()):
-    """Kernels of ``source`` (which #includes some of ``headers``) after texray.layout's
-    declarations, built once per context, header contents, source and options."""
-    heads = "".join((KERNEL_DIR / h).read_text() for h in headers)
-    key = (rt.context.int_ptr, hash(heads), hash(source), tuple(options))
-    prg = _cache.get(key)
-    if prg is None:
-        # the headers' hash in the source: pyopencl's binary cache must not serve stale includes
-        src = f"/* {hash(heads)} */\n" + layout.opencl_declarations() + source
-        built = cl.Program(rt.context, src).build(options=list(options) + ["-I", str(KERNEL_DIR)])
-        prg = _cache[key] = Kernels(built)
-    return prg
+    """Kernels of ``source`` (which #includes the kernel ``headers``) built by the renderer's
+    own build path (texray.device.opencl.Runtime.build: the generated declarations first,
+    OpenCL C 1.2, cached per source, options and every kernel file), retrieved by attribute."""
+    prg = rt.build(source, options)
+    kernels = _cache.get(id(prg))
+    if kernels is None or kernels._prg is not prg:
+        kernels = _cache[id(prg)] = Kernels(prg)
+    return kernels

@@ -3,7 +3,7 @@
 Each numpy dtype below is the single source of truth for one device struct:
 :func:`opencl_declarations` emits the matching OpenCL C ``typedef``\\ s (written
 into the generated header ``texray_layout.h`` at build time), and
-``tests/test_layout.py`` asks each device for ``sizeof``/``offsetof`` and
+``tests/portability/test_layout.py`` asks each device for ``sizeof``/``offsetof`` and
 compares them with these dtypes.
 
 All fields are 4-byte scalars or fixed arrays of them, grouped so that every

@@ -200,9 +200,16 @@ class Runtime:
         process; the driver's or pyopencl's cache on disk makes the next process's
         build cheap as well. Raises BuildError with the compiler log on failure.
         """
-        source = opencl_prelude() + '#include "texray.cl"\n'
-        options = ([f"-D{k}={int(v)}" for k, v in sorted(defines.items())] + ["-I", str(KERNEL_DIR)]
-                   + ["-cl-std=CL1.2"] + list(extra_options))
+        return self.build('#include "texray.cl"\n', [f"-D{k}={int(v)}" for k, v in sorted(defines.items())]
+                          + list(extra_options))
+
+    def build(self, source: str, options=()) -> cl.Program:
+        """``source`` after the generated prelude (:func:`opencl_prelude`), built with
+        ``options`` as OpenCL C 1.2 against the kernel sources (``-I KERNEL_DIR``): the one
+        build path of the renderer's program and the tests' kernels. Cached per (source,
+        every kernel source file, options); BuildError with the compiler log on failure."""
+        source = opencl_prelude() + source
+        options = list(options) + ["-I", str(KERNEL_DIR), "-cl-std=CL1.2"]
         key = (hashlib.sha256((source + _kernel_sources_digest()).encode()).hexdigest(), tuple(options))
         with self._lock:
             prg = self._programs.get(key)

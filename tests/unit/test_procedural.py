@@ -11,7 +11,7 @@ import trimesh
 
 from texray import procedural as proc
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 
 CLOSED = {
     "sphere": lambda: proc.uv_sphere(24, 12, radius=1.5),

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-PACKAGE = Path(__file__).resolve().parents[1] / "pyhost" / "texray"
+PACKAGE = Path(__file__).resolve().parents[2] / "pyhost" / "texray"
 
 # The one import inside a function: Scene.load reads a scene file, and the scene-file
 # reader is built on the scene model (it makes Scenes), so the model cannot import it

@@ -1,7 +1,7 @@
 """Regressions of issue 12's fuzz findings on the host side, each with its exact input:
 every bad value is a SceneError (or DeviceError) when the object is made, worded
 'FIELD: expected ..., got VALUE' with plain numbers; a scene file's errors name the file.
-The kernel side (NaN and degenerate rays are misses) is tests/test_ray_robustness.py."""
+The kernel side (NaN and degenerate rays are misses) is tests/kernels/test_ray_robustness.py."""
 import os
 import warnings
 

@@ -8,7 +8,7 @@ import OpenImageIO as oiio
 
 from texray.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_render_command_writes_png_and_exr(tmp_path, capsys):

@@ -403,7 +403,7 @@ def test_bench_scene_files_and_their_height_maps():
     from pathlib import Path
 
     from texray.bench import sweep as B
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     spec = importlib.util.spec_from_file_location("make_assets", root / "tools" / "make_assets.py")
     assets = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(assets)
