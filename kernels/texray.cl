@@ -2,36 +2,36 @@
 /* The whole program: texray.layout's generated declarations are prepended by
  * the host, then every stage. Stages are separate kernels so each can be
  * timed alone (texray bench). */
-#include "common.h"
-#include "sampler.h"
-#include "geom.h"
-#include "triangle.h"
+#include "core/common.h"
+#include "core/sampler.h"
+#include "core/accurate.h"
+#include "geometry/triangle.h"
 #if TX_SPHERES
-#include "sphere.h"
+#include "geometry/sphere.h"
 #endif
 #if TX_CYLINDERS
-#include "cylinder.h"
+#include "geometry/cylinder.h"
 #endif
 #if TX_QUADS
-#include "quad.h"
+#include "geometry/quad.h"
 #endif
 #if TX_DISPLACEMENT
-#include "displace.h"
+#include "geometry/displace.h"
 #endif
-#include "bvh.h"
-#include "wrap.h"
-#include "mapping.h"
-#include "differentials.h"
-#include "texture.h"
+#include "accel/bvh.h"
+#include "texture/wrap.h"
+#include "texture/mapping.h"
+#include "texture/differentials.h"
+#include "texture/texture.h"
 #if TX_BUMP || TX_NORMAL_MAPS || TX_VERTEX_NORMALS || TX_DISPLACEMENT
-#include "bump.h"
+#include "shading/bump.h"
 #endif
 #if TX_VERTEX_NORMALS
-#include "terminator.h"
+#include "shading/terminator.h"
 #endif
-#include "raygen.cl"
-#include "intersect.cl"
-#include "surface.cl"
-#include "shadow.cl"
-#include "shade.cl"
-#include "fused.cl"
+#include "stages/raygen.cl"
+#include "stages/intersect.cl"
+#include "stages/surface.cl"
+#include "stages/shadow.cl"
+#include "stages/shade.cl"
+#include "stages/fused.cl"

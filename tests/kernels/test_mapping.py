@@ -35,9 +35,9 @@ KINDS = ("planar", "cylindrical", "spherical")
 MODES = ("repeat", "clamp", "mirror")
 
 _KERNELS = r"""
-#include "common.h"
-#include "mapping.h"
-#include "wrap.h"
+#include "core/common.h"
+#include "texture/mapping.h"
+#include "texture/wrap.h"
 
 __kernel void consts(__global int* out)
 {
@@ -106,7 +106,7 @@ __kernel void eval_wrap_float(__global const float* u, int n, int mode, __global
 """
 
 def _program(rt):
-    return build_test_program(rt, ("common.h", "mapping.h", "wrap.h"), _KERNELS)
+    return build_test_program(rt, ("core/common.h", "texture/mapping.h", "texture/wrap.h"), _KERNELS)
 
 
 def _buf(rt, a):

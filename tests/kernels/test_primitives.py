@@ -32,11 +32,11 @@ import prim_reference as ref
 from kernel_harness import build_test_program
 
 _KERNELS = r"""
-#include "common.h"
-#include "geom.h"
-#include "sphere.h"
-#include "cylinder.h"
-#include "quad.h"
+#include "core/common.h"
+#include "core/accurate.h"
+#include "geometry/sphere.h"
+#include "geometry/cylinder.h"
+#include "geometry/quad.h"
 
 #define OUT_FLOATS 24   /* hit, t, uv[2], p[3], ng[3], dpdu[3], dpdv[3], perr[3], param[2], pad[3] */
 
@@ -124,7 +124,7 @@ __kernel void quad_geom_at(__global const QuadVerts* q, __global const QuadShade
 OUT = np.dtype([("hit", "<f4"), ("t", "<f4"), ("uv", "<f4", (2,)), ("p", "<f4", (3,)), ("ng", "<f4", (3,)),
                 ("dpdu", "<f4", (3,)), ("dpdv", "<f4", (3,)), ("perr", "<f4", (3,)), ("param", "<f4", (2,)),
                 ("pad", "<f4", (3,))])
-_HEADERS = ("common.h", "geom.h", "sphere.h", "cylinder.h", "quad.h")
+_HEADERS = ("core/common.h", "core/accurate.h", "geometry/sphere.h", "geometry/cylinder.h", "geometry/quad.h")
 
 
 def _program(rt):

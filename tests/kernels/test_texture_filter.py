@@ -37,12 +37,12 @@ from texray.compile import compile_scene
 from kernel_harness import build_test_program
 
 _KERNELS = r"""
-#include "common.h"
-#include "geom.h"
-#include "wrap.h"
-#include "mapping.h"
-#include "differentials.h"
-#include "texture.h"
+#include "core/common.h"
+#include "core/accurate.h"
+#include "texture/wrap.h"
+#include "texture/mapping.h"
+#include "texture/differentials.h"
+#include "texture/texture.h"
 
 /* in: 6 floats per lookup (uv, duv_dx, duv_dy); out: texture_eval, then (lod, texel size u, v, label alpha) */
 __kernel void lookup(__global const half* texels, __global const TextureInfo* textures, uint tex,
@@ -84,7 +84,8 @@ VARIANTS = [(1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1), (1, 1, 1, 1)
 
 
 def _program(rt, variant):
-    k = build_test_program(rt, ("common.h", "geom.h", "wrap.h", "mapping.h", "differentials.h", "texture.h"),
+    k = build_test_program(rt, ("core/common.h", "core/accurate.h", "texture/wrap.h", "texture/mapping.h",
+                                "texture/differentials.h", "texture/texture.h"),
                            _KERNELS, [f"-DTX_FILTER_{n.upper()}={v}" for n, v in zip(FILTER_NAMES, variant)])
     return {"lookup": k.lookup, "differentials": k.differentials}
 

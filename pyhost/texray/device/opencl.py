@@ -233,11 +233,12 @@ def opencl_prelude() -> str:
 
 @lru_cache(maxsize=1)
 def _kernel_sources_digest() -> str:
-    """Hash of every kernel source file, so an edited header invalidates the cache."""
+    """Hash of every kernel source file (kernels/ and its subfolders, by path relative to
+    it), so an edited header invalidates the cache."""
     h = hashlib.sha256()
-    for p in sorted(KERNEL_DIR.glob("*")):
+    for p in sorted(KERNEL_DIR.rglob("*")):
         if p.suffix in (".cl", ".h"):
-            h.update(p.name.encode())
+            h.update(p.relative_to(KERNEL_DIR).as_posix().encode())
             h.update(p.read_bytes())
     return h.hexdigest()
 

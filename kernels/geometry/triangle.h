@@ -1,4 +1,4 @@
-#line 2 "triangle.h"
+#line 2 "geometry/triangle.h"
 /* Watertight ray/triangle intersection (Woop, Benthin, Wald 2013, "Watertight
  * Ray/Triangle Intersection", JCGT 2(1)).
  *

@@ -1,4 +1,4 @@
-#line 2 "cylinder.h"
+#line 2 "geometry/cylinder.h"
 /* Ray/cylinder intersection and the cylinder's texture mapping: the lecture's
  * partial open cylinder x = r cos(theta), y = r sin(theta), z in [z_min, z_max],
  * theta in [theta_min, theta_max], in the frame (origin; x = axis_x, z = axis_z,

@@ -1,4 +1,4 @@
-#line 2 "displace.h"
+#line 2 "geometry/displace.h"
 /* Displacement mapping (the lecture's "Displacement Mapping" slides): the surface
  * S(u, v) = P(u, v) + H(u, v) n(u, v) of a quad, sphere or cylinder (Displaced,
  * texray.layout.DISPLACED), H the bilinear interpolant of a unorm16 height texture (texray.displace.quantize)
@@ -35,7 +35,7 @@
 #ifndef TEXRAY_DISPLACE_H
 #define TEXRAY_DISPLACE_H
 
-#include "wrap.h"
+#include "texture/wrap.h"
 
 #define TX_DISP_MAX_LEVELS 32
 /* texray.displace.MAX_STEPS, MAX_REFINE: the host's limits on steps and refine, applied

@@ -1,4 +1,4 @@
-#line 2 "sampler.h"
+#line 2 "core/sampler.h"
 /* Pixel sample positions: correlated multi-jittered sampling (Kensler 2013,
  * "Correlated Multi-Jittered Sampling", Pixar TM 13-01), which stratifies any
  * sample count N both as an m x n grid (m = floor(sqrt N), n = ceil(N / m))

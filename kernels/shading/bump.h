@@ -1,4 +1,4 @@
-#line 2 "bump.h"
+#line 2 "shading/bump.h"
 /* Bump mapping (Blinn, "Simulation of Wrinkled Surfaces", SIGGRAPH 1978; the
  * lecture's "Bump mapping" slides) and normal maps: the material roles that
  * replace the shading normal. Needs common.h, geom.h, wrap.h, mapping.h, texture.h.

@@ -1,4 +1,4 @@
-#line 2 "sphere.h"
+#line 2 "geometry/sphere.h"
 /* Ray/sphere intersection and the sphere's texture mapping.
  *
  * Intersection: Haines, Guenther, Akenine-Moller, "Precision Improvements for

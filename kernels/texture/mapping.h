@@ -1,4 +1,4 @@
-#line 2 "mapping.h"
+#line 2 "texture/mapping.h"
 /* Projection mappings (the lecture's planar, cylindrical and spherical
  * texture coordinates) and affine UV transforms. Needs common.h (dot3).
  *

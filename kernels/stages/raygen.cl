@@ -1,4 +1,4 @@
-#line 2 "raygen.cl"
+#line 2 "stages/raygen.cl"
 /* Stage 1: primary rays of one sample pass over one tile of pixels. */
 
 /* The sample pattern of pixel (px, py): a hash of the pixel and the seed. */

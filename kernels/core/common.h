@@ -1,4 +1,4 @@
-#line 2 "common.h"
+#line 2 "core/common.h"
 /* Small numeric helpers shared by every stage.
  *
  * Dot and cross products are written as plain multiply-adds and min/max as

@@ -1,4 +1,4 @@
-#line 2 "shadow.cl"
+#line 2 "stages/shadow.cl"
 /* Stage 4: visibility of every point light from every hit (any-hit rays).
  *
  * The origin is offset along the geometric normal on the side the camera ray

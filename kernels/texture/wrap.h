@@ -1,4 +1,4 @@
-#line 2 "wrap.h"
+#line 2 "texture/wrap.h"
 /* Texture wrap modes: what a texel index or a texture coordinate outside the
  * image means. Mode numbers are texray.mapping.WRAP_MODES on the host.
  *

@@ -1,4 +1,4 @@
-#line 2 "bvh.h"
+#line 2 "accel/bvh.h"
 /* BVH traversal of the 4-wide tree: closest hit ordered by child distance,
  * and any hit.
  *

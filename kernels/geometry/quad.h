@@ -1,4 +1,4 @@
-#line 2 "quad.h"
+#line 2 "geometry/quad.h"
 /* Ray/bilinear patch intersection and the patch's texture mapping.
  *
  * The patch (the lecture's quadrilateral) is

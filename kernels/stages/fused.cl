@@ -1,4 +1,4 @@
-#line 2 "fused.cl"
+#line 2 "stages/fused.cl"
 /* All five stages in one kernel: each work-item takes one pixel of the tile
  * through `nsamples` samples (raygen -> closest hit -> surface -> shadow rays
  * -> shading) and adds their sum to the pixel's accumulator. Same functions,

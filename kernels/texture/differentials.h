@@ -1,4 +1,4 @@
-#line 2 "differentials.h"
+#line 2 "texture/differentials.h"
 /* Ray differentials of primary rays (Igehy, "Tracing Ray Differentials",
  * SIGGRAPH 1999) and the texture-coordinate derivatives they give (pbrt-v4
  * SurfaceInteraction::ComputeDifferentials). Only camera rays are shaded, so

@@ -1,4 +1,4 @@
-#line 2 "terminator.h"
+#line 2 "shading/terminator.h"
 /* The shadow terminator of smooth-shaded low-poly meshes (Hanika, "Hacking the
  * Shadow Terminator", Ray Tracing Gems II, ch. 4, 2021). Needs common.h.
  *

@@ -1,4 +1,4 @@
-#line 2 "texture.h"
+#line 2 "texture/texture.h"
 /* Texture lookups. Texels are linear RGBA halves (texray.texture decodes them per
  * role on the host), row 0 = the image's top row; u runs along columns, v = 0 is
  * the bottom row and v = 1 the top (the OBJ / OpenGL convention). Texel centres

@@ -1,4 +1,4 @@
-#line 2 "surface.cl"
+#line 2 "stages/surface.cl"
 /* Stage 3: surface evaluation. Each primitive kind gives the hit's geometry
  * (point, geometric normal, dP/du, dP/dv, texture uv: Geom); triangles add
  * the interpolated vertex normal. Normals are then turned to the side the

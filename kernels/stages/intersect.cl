@@ -1,4 +1,4 @@
-#line 2 "intersect.cl"
+#line 2 "stages/intersect.cl"
 /* Stage 2: closest hit of every ray of the tile. */
 
 __kernel void intersect(__global const Ray* rays, __global Hit* hits, uint n, TX_GEOM_PARAMS)

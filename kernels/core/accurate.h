@@ -1,4 +1,4 @@
-#line 2 "geom.h"
+#line 2 "core/accurate.h"
 /* What the surface stage needs about a hit, and the accurate arithmetic the
  * analytic primitives (sphere.h, cylinder.h, quad.h) share.
  *

@@ -1,4 +1,4 @@
-#line 2 "shade.cl"
+#line 2 "stages/shade.cl"
 /* Stage 5: the lecture's local illumination, accumulated per pixel:
  *   I = ambient kd + sum_i I_i vis(i) / d_i^2 (kd (N.L_i) + ks (R_i.V)^n)
  * with N the shading normal facing the viewer, L_i and V unit vectors from
