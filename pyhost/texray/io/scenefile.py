@@ -6,7 +6,6 @@ raises SceneError naming the file, the field and the value.
 """
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 

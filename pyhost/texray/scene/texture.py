@@ -27,7 +27,6 @@ textures get MIP levels.
 """
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 
