@@ -6,13 +6,20 @@
  * records between stages in global memory; the stage kernels stay for timing
  * each stage alone and for the AOV pass. */
 
-__kernel void render_fused(__global float4* accum, uint n, uint y0, uint sample0, uint nsamples, uint seed,
-                           uint jitter,
-                           TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
-                           __global const PointLight* lights, uint nlights, float4 ambient, float4 background)
+/* With TX_ADAPTIVE (adaptive sampling, texray.renderer.adaptive) the work-items take the
+ * tile's pixels listed in `active` (n of them) and each also adds the squares of its
+ * samples' luminance to sum_y2, the host's variance estimate; otherwise work-item gid
+ * is pixel gid of the tile and both are NULL. */
+__kernel void render_fused(__global float4* accum, __global const uint* active, __global float* sum_y2, uint n,
+                           uint y0, uint sample0, uint nsamples, uint seed, uint jitter,
+                           TX_GEOM_PARAMS, TX_SURFACE_PARAMS, TX_LIGHT_PARAMS, float4 ambient, float4 background)
 {
     uint gid = get_global_id(0);
     if (gid >= n) return;
+#if TX_ADAPTIVE
+    gid = active[gid];
+    float y2 = 0.0f;
+#endif
     uint px = gid % image_w, py = y0 + gid / image_w;
     uint pattern = pixel_pattern(image_w, px, py, seed), grid_m = cmj_grid_m(spp);
     float3 sum = (float3)(0.0f);
@@ -35,7 +42,15 @@ __kernel void render_fused(__global float4* accum, uint n, uint y0, uint sample0
                     c += light_term(&s, v, lpos, vload3(0, lights[i].intensity));
             }
         }
-        sum += clamp_radiance(c);
+        c = clamp_radiance(c);
+        sum += c;
+#if TX_ADAPTIVE
+        float y = 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;     /* Rec. 709 luminance */
+        y2 += y * y;
+#endif
     }
     accum[gid] += (float4)(sum, (float)nsamples);
+#if TX_ADAPTIVE
+    sum_y2[gid] += y2;
+#endif
 }

@@ -72,7 +72,7 @@ inline float3 clamp_radiance(float3 c)
 
 __kernel void shade(__global const Ray* rays, __global const Surface* surf, __global const uchar* vis,
                     uint n, __global float4* accum,
-                    __global const PointLight* lights, uint nlights, float4 ambient, float4 background)
+                    TX_LIGHT_PARAMS, float4 ambient, float4 background)
 {
     uint gid = get_global_id(0);
     if (gid >= n) return;

@@ -41,7 +41,7 @@ inline uchar light_visible(const Surface* s, float3 org, int lifted, float3 lpos
 }
 
 __kernel void shadow(__global const Surface* surf, __global uchar* vis, uint n, TX_GEOM_PARAMS,
-                     __global const PointLight* lights, uint nlights)
+                     TX_LIGHT_PARAMS)
 {
     uint gid = get_global_id(0);
     if (gid >= n) return;

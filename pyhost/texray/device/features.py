@@ -26,7 +26,8 @@ class Features:
     labels: bool = False           # some material has a label
     bump: bool = False             # some material has a bump map (kernels/bump.h)
     normal_maps: bool = False      # some material has a normal map (kernels/bump.h)
-    displacement: bool = False     # some quad, sphere or cylinder is displaced on the device (kernels/displace.h)
+    displacement: bool = False     # some quad, sphere or cylinder is displaced on the device (geometry/displace.h)
+    adaptive: bool = False         # the fused kernel samples listed pixels and sums Y^2 (texray.renderer.adaptive)
     stack_size: int = 64           # BVH traversal stack; >= the tree's depth
     max_lights: int = 0            # bound on the light count (1, 2, 4 or 8: loops unrolled); 0 = any count
 
@@ -35,7 +36,7 @@ class Features:
         """Every feature compiled in (AOVs aside): the one program that renders any scene
         whose BVH fits ``stack_size``; the benchmark's baseline for specialization."""
         flags = {f.name: True for f in dataclasses.fields(cls) if f.type in (bool, "bool")}
-        flags["aovs"] = False
+        flags["aovs"] = flags["adaptive"] = False      # render settings, not scene features
         return cls(**flags, stack_size=stack_size, max_lights=0)
 
     def covers(self, other: "Features") -> bool:
@@ -55,9 +56,9 @@ class Features:
 
 def generic_features(needed: Features) -> Features:
     """The generic program's features for a scene that needs ``needed``: every
-    capability compiled in; the render settings (shadows, AOVs) kept."""
+    capability compiled in; the render settings (shadows, AOVs, adaptive sampling) kept."""
     g = Features.generic(stack_size=max(128, needed.stack_size))
-    return dataclasses.replace(g, shadows=needed.shadows, aovs=needed.aovs)
+    return dataclasses.replace(g, shadows=needed.shadows, aovs=needed.aovs, adaptive=needed.adaptive)
 
 
 def stack_size_for(depth: int) -> int:
@@ -90,6 +91,7 @@ def compile_options(f: Features) -> dict[str, int]:
         "TX_QUADS": int(f.quads),
         "TX_PROJECTIONS": int(f.projections),
         "TX_AOVS": int(f.aovs),
+        "TX_ADAPTIVE": int(f.adaptive),
         "TX_BUMP": int(f.bump),
         "TX_NORMAL_MAPS": int(f.normal_maps),
         "TX_DISPLACEMENT": int(f.displacement),

@@ -26,6 +26,7 @@ from ..errors import DeviceError, SceneError
 from ..io.images import ScanlineWriter
 from ..scene import Scene
 from .. import validate as V
+from .adaptive import round_size, standard_error, still_active
 from .image import Image, check_host_memory, host_image_bytes
 from .tiling import MAX_FUSED_SAMPLES, plan_rows
 
@@ -37,7 +38,7 @@ RAY_BYTES = layout.RAY.itemsize + layout.HIT.itemsize + layout.SURFACE.itemsize 
 
 def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=True, shadows=True,
            aovs=(), specialize=True, local_size=None, memory_limit=None, tile_pixels=None, progress=None,
-           sink=None, compiled=None, texture_filter=None, pipeline="fused") -> Image:
+           sink=None, compiled=None, texture_filter=None, pipeline="fused", adaptive=None) -> Image:
     """Render ``scene`` to a linear RGB image.
 
     spp: samples per pixel (correlated multi-jittered within the pixel, box
@@ -73,13 +74,26 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     texture_filter: None (each texture's own filter) or "nearest", "bilinear",
     "trilinear" or "anisotropic" for every texture (texray.device.layout.FILTERS); for a precompiled
     scene pass it to compile_scene instead.
+    adaptive: None (every pixel takes spp samples) or a threshold t > 0: a
+    pixel stops sampling once the standard error of its mean luminance is at
+    most t times that mean (t times 0.1 below a mean of 0.1), checked after
+    each round of about spp / 8 samples (at least 8), and while no neighbour
+    still samples (:mod:`texray.renderer.adaptive`); spp is then the most a
+    pixel takes. ``stats["samples"]`` counts the samples taken. Fused pipeline
+    only.
     """
     width, height, spp, seed = V.render_settings(width, height, spp, seed)
     aovs = _check_options(aovs, pipeline, progress, sink, jitter=jitter, shadows=shadows, specialize=specialize)
+    if adaptive is not None:
+        adaptive = V.number(adaptive, "adaptive", "render: ", 0.0, lo_open=True)
+        if pipeline != "fused":
+            raise SceneError("render: adaptive: adaptive sampling runs in the fused pipeline; pass pipeline='fused'")
     if sink is None:
         check_host_memory(host_image_bytes(width, height, aovs), width, height)
     t_start = time.perf_counter()
     cs, camera = _compiled(scene, compiled, shadows, texture_filter, aovs, specialize)
+    if adaptive is not None:
+        cs.features = dataclasses.replace(cs.features, adaptive=True)
     t_compiled = time.perf_counter()
     rt = runtime(device)
     if cs.texels is not None:
@@ -91,22 +105,26 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     fused = pipeline == "fused"
     nl = max(len(cs.lights), 1)
     # per pixel of a tile: the accumulator; the staged pipeline (and the AOV pass) add the records
-    per_ray = 16 + (0 if fused and not aovs else RAY_BYTES - 16 + nl) + (4 * layout.AOV_FLOATS if aovs else 0)
+    per_ray = (16 + (0 if fused and not aovs else RAY_BYTES - 16 + nl) + (4 * layout.AOV_FLOATS if aovs else 0)
+               + (8 if adaptive is not None else 0))
     rows = plan_rows(width, height, per_ray, sum(cs.device_bytes().values()), rt.device,
                      memory_limit=memory_limit, tile_pixels=tile_pixels)
-    run = _Run(rt, prg, cs, camera, width, height, spp, seed, jitter, local, rows, fused, aovs)
+    run = _Run(rt, prg, cs, camera, width, height, spp, seed, jitter, local, rows, fused, aovs, adaptive)
     img_rows = rows if sink is not None else height      # with a sink, only one band is kept
     out = np.empty((img_rows, width, 4), np.float32)
     aov_out = np.empty((img_rows, width, layout.AOV_FLOATS), np.float32) if aovs else None
     per_launch = max(1, min(spp, MAX_FUSED_SAMPLES // run.n_max)) if fused else 1
     launches = (spp + per_launch - 1) // per_launch
+    if adaptive is not None:            # the most launches the rounds can take
+        size = round_size(spp)
+        launches = (spp + size - 1) // size * ((size + per_launch - 1) // per_launch)
     total_passes = ((height + rows - 1) // rows) * (launches + bool(aovs))
 
     def report(last):
         run.passes += 1
         if progress is not None:
             last.wait()
-            progress(run.passes / total_passes)
+            progress(min(1.0, run.passes / total_passes))
 
     for y0 in range(0, height, rows):
         tile_rows = min(rows, height - y0)
@@ -114,7 +132,9 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         gsize, lsize = rt.launch_size(n, local)
         oy = 0 if sink is not None else y0
         cl.enqueue_fill_buffer(rt.queue, run.accum, np.float32(0), 0, n * 16)
-        if fused:
+        if adaptive is not None:
+            run.adaptive_tile(n, y0, tile_rows, per_launch, report)
+        elif fused:
             for first in range(0, spp, per_launch):
                 report(run.fused(gsize, lsize, n, y0, first, min(per_launch, spp - first)))
         else:
@@ -128,10 +148,12 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
             report(_Finish(rt.queue))
         if sink is not None:
             rt.queue.finish()
-            sink(y0, out[:tile_rows, :, :3] / np.float32(spp), _split_aovs(aov_out, aovs, tile_rows))
+            sink(y0, _mean(out[:tile_rows], spp, adaptive), _split_aovs(aov_out, aovs, tile_rows))
     rt.queue.finish()
+    if progress is not None and run.passes < total_passes:
+        progress(1.0)                   # adaptive sampling ended early
     t_end = time.perf_counter()
-    rgb = None if sink is not None else np.ascontiguousarray(out[:, :, :3] / np.float32(spp))
+    rgb = None if sink is not None else np.ascontiguousarray(_mean(out, spp, adaptive))
     aov = {} if sink is not None else _split_aovs(aov_out, aovs, height)
     stage_s = {name: sum((e.profile.end - e.profile.start) for e in evs) * 1e-9 for name, evs in run.events.items()}
     stats = {
@@ -145,8 +167,17 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         "tile_rows": rows, "tiles": (height + rows - 1) // rows, "local_size": local,
         "device_bytes": cs.device_bytes(), "ray_buffer_bytes": run.n_max * per_ray,
         "features": cs.features, "specialized": bool(specialize), "pipeline": pipeline,
+        "adaptive": adaptive, "samples": run.samples if adaptive is not None else width * height * spp,
     }
     return Image(rgb=rgb, aov=aov, stats=stats)
+
+
+def _mean(out, spp, adaptive):
+    """The pixels' means from the accumulators (sum RGB, samples): each pixel's own count
+    with adaptive sampling, else spp for all (the same value, divided the same way)."""
+    if adaptive is None:
+        return out[:, :, :3] / np.float32(spp)
+    return out[:, :, :3] / out[:, :, 3:4]
 
 
 class _Finish:
@@ -207,8 +238,9 @@ class _Run:
     """One render's device state: the uploaded scene, the per-tile buffers, the kernels and
     their profiling events; launches the fused kernel or one sample of the stages."""
 
-    def __init__(self, rt, prg, cs, camera, width, height, spp, seed, jitter, local, rows, fused, aovs):
-        self.rt, self.cs, self.fused_only = rt, cs, fused
+    def __init__(self, rt, prg, cs, camera, width, height, spp, seed, jitter, local, rows, fused, aovs, adaptive):
+        self.rt, self.cs, self.local, self.adaptive = rt, cs, local, adaptive
+        self.samples = 0
         self.width, self.height, self.spp, self.seed, self.jitter = width, height, spp, seed, jitter
         self.n_max = rows * width
         self.passes = 0
@@ -223,6 +255,8 @@ class _Run:
             self.vis = cl.Buffer(ctx, mf.READ_WRITE, n_max * nl) if not fused else None
             self.accum = cl.Buffer(ctx, mf.READ_WRITE, n_max * 16)
             self.aov_buf = cl.Buffer(ctx, mf.WRITE_ONLY, n_max * 4 * layout.AOV_FLOATS) if aovs else None
+            self.active = cl.Buffer(ctx, mf.READ_ONLY, n_max * 4) if adaptive is not None else None
+            self.sum_y2 = cl.Buffer(ctx, mf.READ_WRITE, n_max * 4) if adaptive is not None else None
             cam = np.zeros(1, layout.CAMERA)
             eye, fwd, right, upv = camera.basis(width / height)
             cam["eye"], cam["forward"], cam["right"], cam["up"] = eye, fwd, right, upv
@@ -247,9 +281,32 @@ class _Run:
     def fused(self, gsize, lsize, n, y0, first, count):
         """``count`` samples from ``first`` of every pixel of the tile at row y0."""
         u32, cs = np.uint32, self.cs
-        return self._launch("render_fused", gsize, lsize, self.accum, u32(n), u32(y0), u32(first), u32(count),
+        return self._launch("render_fused", gsize, lsize, self.accum, self.active, self.sum_y2, u32(n), u32(y0),
+                            u32(first), u32(count),
                             u32(self.seed), u32(self.jitter), *self.geom, *self.surface_args, *self.light,
                             cs.ambient, cs.background)
+
+    def adaptive_tile(self, n, y0, rows, per_launch, report):
+        """Sample the tile's n pixels in rounds, each round only those still active
+        (texray.renderer.adaptive), up to spp samples."""
+        q, spp, width = self.rt.queue, self.spp, self.width
+        cl.enqueue_fill_buffer(q, self.sum_y2, np.float32(0), 0, n * 4)
+        active = np.arange(n, dtype=np.uint32)
+        acc, y2 = np.empty((n, 4), np.float32), np.empty(n, np.float32)
+        done, size = 0, round_size(spp)
+        while done < spp and len(active):
+            cl.enqueue_copy(q, self.active, active)
+            gsize, lsize = self.rt.launch_size(len(active), self.local)
+            count = min(size, spp - done)
+            for first in range(done, done + count, per_launch):
+                report(self.fused(gsize, lsize, len(active), y0, first, min(per_launch, done + count - first)))
+            self.samples += len(active) * count
+            done += count
+            if done < spp:
+                cl.enqueue_copy(q, acc, self.accum)
+                cl.enqueue_copy(q, y2, self.sum_y2)
+                mean, se = standard_error(acc[:, :3], y2, acc[:, 3])
+                active = np.flatnonzero(still_active(mean, se, self.adaptive, rows, width)).astype(np.uint32)
 
     def trace(self, gsize, lsize, n, y0, sample, jit, aov):
         """raygen -> intersect -> surface of one sample of the tile (``aov``: the AOV buffer or None)."""

@@ -1,0 +1,51 @@
+"""Adaptive sampling: stop sampling the pixels whose estimate has converged.
+
+A render with ``adaptive=threshold`` samples every pixel of a tile in rounds of
+:func:`round_size` samples (the same sample indices for every pixel still
+sampled, so each pixel's samples are the first ones of its spp-sample pattern).
+After each round a pixel's error is the standard error of its mean luminance
+Y = 0.2126 R + 0.7152 G + 0.0722 B,
+
+    se = sqrt(var / n),   var = (sum Y^2 - (sum Y)^2 / n) / (n - 1),
+
+and it has converged when ``se <= threshold * max(mean Y, FLOOR)``: a relative
+error, with an absolute floor in the dark, where relative errors are not seen.
+The estimate of a pixel can be wrong when its first samples all missed a small
+feature; a pixel keeps sampling while any of its 3x3 neighbours does (a dilation
+of the unconverged set), so that an edge or highlight seen by one pixel keeps its
+neighbours sampling too. Pixels stop at ``spp`` samples whatever their error.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722], np.float32)    # Rec. 709, what the device accumulates
+FLOOR = 0.1          # mean luminance below which the error is measured absolutely (threshold * FLOOR)
+MIN_SAMPLES = 8      # the first round: enough samples for a variance estimate
+
+
+def round_size(spp: int) -> int:
+    """Samples per round: at least MIN_SAMPLES, about spp / 8 (at most ~8 rounds)."""
+    return int(min(spp, max(MIN_SAMPLES, spp // 8)))
+
+
+def standard_error(sum_rgb, sum_y2, n):
+    """(mean luminance, standard error of that mean) per pixel, float64, from the
+    accumulated sums of n samples (n >= 2)."""
+    sum_y = np.asarray(sum_rgb, np.float64) @ LUMINANCE.astype(np.float64)
+    n = np.asarray(n, np.float64)
+    mean = sum_y / n
+    var = np.maximum(np.asarray(sum_y2, np.float64) - sum_y * mean, 0.0) / np.maximum(n - 1, 1)
+    return mean, np.sqrt(var / n)
+
+
+def still_active(mean, se, threshold, rows, width):
+    """Boolean (rows * width,) mask of the pixels to keep sampling: not converged, or
+    next to one that is not (3x3 dilation on the tile's grid)."""
+    open_ = (se > threshold * np.maximum(mean, FLOOR)).reshape(rows, width)
+    p = np.pad(open_, 1)
+    grown = np.zeros_like(open_)
+    for dy in (0, 1, 2):
+        for dx in (0, 1, 2):
+            grown |= p[dy:dy + rows, dx:dx + width]
+    return grown.ravel()

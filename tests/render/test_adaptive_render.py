@@ -1,0 +1,50 @@
+"""Adaptive sampling in whole renders: fewer samples where the image has converged, the
+error of the full render, and with a vanishing threshold the full render itself."""
+import numpy as np
+import pytest
+
+import texray as tx
+from texray.errors import SceneError
+
+
+def _scene(scenes_dir):
+    return tx.Scene.load(scenes_dir / "showcase.toml")
+
+
+def test_adaptive_takes_fewer_samples_for_the_same_error(scenes_dir, device):
+    scene = _scene(scenes_dir)
+    ref = tx.render(scene, 64, 48, 256, device=device, seed=11).rgb
+    full = tx.render(scene, 64, 48, 32, device=device)
+    ada = tx.render(scene, 64, 48, 32, device=device, adaptive=0.03)
+    assert full.stats["samples"] == 64 * 48 * 32 and ada.stats["samples"] < 0.9 * full.stats["samples"]
+    assert np.all(np.isfinite(ada.rgb))
+    err = lambda img: np.sqrt(np.mean((img - ref) ** 2))
+    assert err(ada.rgb) < 1.15 * err(full.rgb), (err(ada.rgb), err(full.rgb))
+
+
+def test_a_vanishing_threshold_samples_every_noisy_pixel_fully(scenes_dir, device):
+    scene = _scene(scenes_dir)
+    full = tx.render(scene, 48, 32, 16, device=device)
+    ada = tx.render(scene, 48, 32, 16, device=device, adaptive=1e-30)
+    # only pixels of zero variance (background, flat unshadowed ones) stop early
+    np.testing.assert_allclose(ada.rgb, full.rgb, rtol=1e-5, atol=1e-6)
+    assert ada.stats["samples"] <= full.stats["samples"]
+
+
+def test_adaptive_is_deterministic_and_bounded_by_spp(scenes_dir, device):
+    scene = _scene(scenes_dir)
+    a = tx.render(scene, 40, 30, 24, device=device, adaptive=0.05, tile_pixels=40 * 7)
+    b = tx.render(scene, 40, 30, 24, device=device, adaptive=0.05, tile_pixels=40 * 7)
+    assert np.array_equal(a.rgb, b.rgb) and a.stats["samples"] == b.stats["samples"] <= 40 * 30 * 24
+
+
+@pytest.mark.parametrize("value, match", [(0, r"adaptive: expected a number in \(0, inf\)"),
+                                          (float("nan"), "adaptive"), ("x", "adaptive")])
+def test_bad_thresholds_are_named(value, match):
+    with pytest.raises(SceneError, match=match):
+        tx.render(tx.Scene(), 8, 8, 4, adaptive=value)
+
+
+def test_adaptive_needs_the_fused_pipeline():
+    with pytest.raises(SceneError, match="fused"):
+        tx.render(tx.Scene(), 8, 8, 4, adaptive=0.1, pipeline="stages")
