@@ -55,14 +55,14 @@ def test_generic_features_cover_every_scene(scenes_dir):
 def test_generic_set_turns_on_every_flag():
     g = Features.generic()
     for fld in dataclasses.fields(Features):
-        if fld.name == "aovs":
-            assert g.aovs is False
+        if fld.name in ("aovs", "adaptive"):          # render settings, not capabilities
+            assert getattr(g, fld.name) is False
         elif isinstance(getattr(g, fld.name), bool):
             assert getattr(g, fld.name) is True, fld.name
     assert g.max_lights == 0 and g.stack_size >= 128
     # every flag reaches the compiler
     opts = compile_options(g)
-    assert all(v == 1 for k, v in opts.items() if k not in ("TX_STACK_SIZE", "TX_MAX_LIGHTS", "TX_AOVS"))
+    assert all(v == 1 for k, v in opts.items() if k not in ("TX_STACK_SIZE", "TX_MAX_LIGHTS", "TX_AOVS", "TX_ADAPTIVE"))
 
 
 def test_feature_bounds():
