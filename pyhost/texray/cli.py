@@ -52,6 +52,16 @@ _positive = _int_at_least(1, "a positive integer")
 _non_negative = _int_at_least(0, "an integer >= 0")
 
 
+def _positive_number(text):
+    try:
+        v = float(text)
+    except ValueError:
+        v = None
+    if v is None or not v > 0 or v == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text}")
+    return v
+
+
 def _cmd_render(args):
     scene = Scene.load(args.scene)
     settings = getattr(scene, "render_settings", {})
@@ -59,11 +69,12 @@ def _cmd_render(args):
     height = args.height if args.height is not None else settings.get("height", 480)
     spp = args.spp if args.spp is not None else settings.get("spp", 4)
     seed = args.seed if args.seed is not None else settings.get("seed", 0)
+    adaptive = args.adaptive if args.adaptive is not None else settings.get("adaptive")
     device = int(args.device) if args.device is not None and args.device.isdigit() else args.device
     bar = _Progress()
     try:
         image = render(scene, width=width, height=height, spp=spp, device=device, seed=seed, progress=bar,
-                       aovs=tuple(args.aov or ()))
+                       aovs=tuple(args.aov or ()), adaptive=adaptive)
     finally:
         bar.close()
     image.save(args.output)
@@ -73,7 +84,8 @@ def _cmd_render(args):
         print(f"AOVs ({', '.join(args.aov)}) written to {aov_path}")
     s = image.stats
     db = s["device_bytes"]
-    print(f"{args.output}: {width}x{height}, {spp} spp, {s['triangles']} triangles on {s['device']}: "
+    spp_text = f"{spp} spp" if adaptive is None else f"<= {spp} spp (adaptive {adaptive:g}: {s['samples'] / (width * height):.1f} on average)"
+    print(f"{args.output}: {width}x{height}, {spp_text}, {s['triangles']} triangles on {s['device']}: "
           f"render {s['render_s']:.2f} s (program build {s['program_build_s']:.2f} s, "
           f"scene {s['scene_compile_s']:.2f} s); device memory {sum(db.values()) / 2**20:.1f} MiB scene "
           f"(textures {db.get('texels', 0) / 2**20:.1f}) + {s['ray_buffer_bytes'] / 2**20:.1f} MiB rays")
@@ -100,6 +112,10 @@ def main(argv=None):
     r.add_argument("--height", type=_positive, help="image height in pixels (default: the scene's, else 480)")
     r.add_argument("--spp", type=_positive, help="samples per pixel (default: the scene's, else 4)")
     r.add_argument("--seed", type=_non_negative, help="sample-pattern seed (default: the scene's, else 0)")
+    r.add_argument("--adaptive", type=_positive_number, metavar="T",
+                   help="adaptive sampling: a pixel stops once the standard error of its mean luminance is <= T "
+                        "x max(mean, 0.1); --spp is then the most it takes (default: the scene's [render] "
+                        "adaptive, else off)"),
     r.add_argument("--device", help="'cpu', 'gpu', an index from 'texray devices', or a name substring")
     r.add_argument("--aov", action="append", metavar="NAME",
                    help="also write this AOV (repeatable): uv, position, normal, shading_normal, depth, "

@@ -48,3 +48,20 @@ def test_bad_thresholds_are_named(value, match):
 def test_adaptive_needs_the_fused_pipeline():
     with pytest.raises(SceneError, match="fused"):
         tx.render(tx.Scene(), 8, 8, 4, adaptive=0.1, pipeline="stages")
+
+
+def test_scene_files_and_the_cli_take_the_threshold(tmp_path):
+    import pytest
+    import texray as tx
+    from texray.cli import main
+    from texray.errors import SceneError
+    path = tmp_path / "s.toml"
+    path.write_text('[render]\nwidth = 8\nheight = 6\nspp = 8\nadaptive = 0.05\n'
+                    '[[lights]]\nposition = [0, 2, 4]\n[[objects]]\ntype = "sphere"\n')
+    assert tx.Scene.load(path).render_settings["adaptive"] == 0.05
+    assert main(["render", str(path), "-o", str(tmp_path / "o.png")]) == 0 and (tmp_path / "o.png").exists()
+    path.write_text('[render]\nadaptive = -1\n')
+    with pytest.raises(SceneError, match=r"render\.adaptive: expected a number in \(0, inf\), got -1"):
+        tx.Scene.load(path)
+    with pytest.raises(SystemExit):
+        main(["render", str(path), "-o", str(tmp_path / "o.png"), "--adaptive", "0"])

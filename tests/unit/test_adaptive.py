@@ -41,3 +41,4 @@ def test_stopping_rule_is_relative_with_a_dark_floor_and_dilated():
 
 def test_round_sizes():
     assert [A.round_size(s) for s in (1, 4, 8, 16, 64, 1024)] == [1, 4, 8, 8, 8, 128]
+

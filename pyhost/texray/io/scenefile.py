@@ -29,7 +29,7 @@ _SCHEMA = {
          "materials": dict, "objects": list},
     "camera": {"eye": _VEC, "look_at": _VEC, "up": _VEC, "fov_y": _NUM},
     "scene": {"ambient": _VEC, "background": _VEC},
-    "render": {"width": int, "height": int, "spp": int, "seed": int},
+    "render": {"width": int, "height": int, "spp": int, "seed": int, "adaptive": _NUM},
     "lights": {"position": _VEC, "intensity": _VEC},
     "textures": {"file": str, "colorspace": str, "wrap": str, "uv_transform": dict, "filter": str,
                  "max_aniso": int, "procedural": str, "params": dict},
@@ -104,7 +104,10 @@ def _build(doc, base, path):
     _check_table(sc, "scene", "scene")
     settings = doc.get("render", {})
     _check_table(settings, "render", "render")
-    V.render_settings(**({"width": 1, "height": 1, "spp": 1, "seed": 0} | settings), where="render.")
+    sizes = {k: v for k, v in settings.items() if k != "adaptive"}
+    V.render_settings(**({"width": 1, "height": 1, "spp": 1, "seed": 0} | sizes), where="render.")
+    if "adaptive" in settings:
+        V.number(settings["adaptive"], "adaptive", "render.", 0.0, lo_open=True)
 
     lights = []
     for i, lt in enumerate(doc.get("lights", [])):
