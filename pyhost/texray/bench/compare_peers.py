@@ -7,6 +7,11 @@
 2. Frames: the given scenes at their own size and spp, ambient and specular 0 in both
    (``peers.comparable_scene``): texray against Mitsuba 3 (``llvm_ad_rgb``, ``direct``), times
    and image difference.
+3. Time to error: Mitsuba's error at that spp (RMSE against its own REF_SPP-sample image)
+   is the target; texray's time to it is its fastest setting (spp from TTE_SPP, or
+   adaptive sampling with a threshold from TTE_ADAPTIVE) whose RMSE against texray's own
+   REF_SPP-sample image is no larger. Each renderer against its own converged image, so
+   that their conventions (filtering, sampling) do not count as error.
 
 Every figure is a median over ``repeat`` runs after one warm-up; ratios are stated with their sense.
 """
@@ -17,12 +22,42 @@ import os
 import time
 from pathlib import Path
 
+import numpy as np
+
 import texray as tx
 from texray.compile import compile_scene
 
 from . import peers
 from .rays import bench_mesh_scene, bench_rays
 from .suite import median_spread
+
+
+REF_SPP = 256
+TTE_SPP = (1, 2, 4, 8, 12, 16, 24, 32, 48, 64)
+TTE_ADAPTIVE = (0.2, 0.1, 0.05, 0.02)      # each with at most 2x Mitsuba's spp
+
+
+def rmse(a, b):
+    d = np.asarray(a, np.float64) - np.asarray(b, np.float64)
+    return float(np.sqrt(np.mean(d * d)))
+
+
+def time_to_error(cmp, w, h, s, device, mitsuba_rgb, mitsuba_s):
+    """Mitsuba's error at ``s`` spp and the settings texray needs to reach it (see the
+    module docstring); one timed render per setting after a warm-up."""
+    mi_ref, _ = peers.mitsuba_render(cmp, w, h, REF_SPP, seed=7)
+    target = rmse(mitsuba_rgb, mi_ref)
+    ref = tx.render(cmp, w, h, REF_SPP, device=device, seed=7).rgb
+    tried = []
+    settings = [{"spp": n} for n in TTE_SPP] + [{"spp": 2 * s, "adaptive": t} for t in TTE_ADAPTIVE]
+    for kw in settings:
+        tx.render(cmp, w, h, device=device, **kw)                     # warm-up: the program's build
+        r = tx.render(cmp, w, h, device=device, seed=1, **kw)
+        tried.append({**kw, "render_s": r.stats["render_s"], "mean_spp": r.stats["samples"] / (w * h),
+                      "rmse": rmse(r.rgb, ref)})
+    reached = [t for t in tried if t["rmse"] <= target]
+    best = min(reached, key=lambda t: t["render_s"]) if reached else None
+    return {"target_rmse": target, "ref_spp": REF_SPP, "mitsuba_s": mitsuba_s, "texray": best, "tried": tried}
 
 
 def cell(v, fmt=".2f", width=22):
@@ -48,7 +83,7 @@ def rays(device, triangles, size, repeat, threads_list, measured=None):
     return dict(figures, scene_compile_s=compile_s), theirs
 
 
-def frames(path, device, repeat, width=None, height=None, spp=None):
+def frames(path, device, repeat, width=None, height=None, spp=None, tte=True):
     scene = tx.Scene.load(path)
     rs = getattr(scene, "render_settings", {}) or {}
     w, h, s = width or rs.get("width", 512), height or rs.get("height", 384), spp or rs.get("spp", 16)
@@ -60,8 +95,11 @@ def frames(path, device, repeat, width=None, height=None, spp=None):
             "first_total_s": first.stats["total_s"]}
     rgb, st = peers.mitsuba_render(cmp, w, h, s, repeat=repeat)
     diff = peers.compare_images(runs[-1].rgb, rgb)
-    return {"scene": str(path), "width": w, "height": h, "spp": s, "texray": ours, "mitsuba": st,
-            "diff": diff, "notes": notes + st["notes"]}
+    out = {"scene": str(path), "width": w, "height": h, "spp": s, "texray": ours, "mitsuba": st,
+           "diff": diff, "notes": notes + st["notes"]}
+    if tte:
+        out["time_to_error"] = time_to_error(cmp, w, h, s, device, rgb, st["render_s"]["median"])
+    return out
 
 
 def bench_peers(device, repeat=5, triangles=1_000_000, size=1024, scenes=(), threads=None, measured=None):
@@ -118,6 +156,26 @@ def bench_peers(device, repeat=5, triangles=1_000_000, size=1024, scenes=(), thr
                       f" {100 * d['rel_mean_diff']:7.2f}% | {100 * d['rel_mean_abs']:6.2f}% |"
                       f" {100 * d['frac_pixels_over']:6.2f}% |\n")
         out.write("ratio = Mitsuba / texray render time (> 1: texray faster)\n")
+        out.write(f"\nTime to Mitsuba's error at the scene's spp (each renderer's RMSE against its own {REF_SPP}-spp "
+                  "image); texray's fastest setting that reaches it\n")
+        out.write(f"| {'scene':<24} | {'target RMSE':>11} | {'Mitsuba s':>9} | {'texray s':>8} | {'ratio':>5} |"
+                  f" {'texray setting':<26} |\n")
+        out.write(f"|{'-' * 26}|{'-' * 12}:|{'-' * 10}:|{'-' * 9}:|{'-' * 6}:|{'-' * 28}|\n")
+        for f in result["frames"]:
+            t = f.get("time_to_error")
+            if t is None:
+                continue
+            name = f"{Path(f['scene']).stem} {f['width']}x{f['height']} {f['spp']}spp"
+            b = t["texray"]
+            if b is None:
+                out.write(f"| {name:<24} | {t['target_rmse']:11.5f} | {t['mitsuba_s']:9.3f} | {'-':>8} | {'-':>5} |"
+                          f" {'not reached':<26} |\n")
+                continue
+            setting = (f"{b['spp']} spp" if "adaptive" not in b else
+                       f"adaptive {b['adaptive']:g}, <= {b['spp']} spp ({b['mean_spp']:.1f})")
+            out.write(f"| {name:<24} | {t['target_rmse']:11.5f} | {t['mitsuba_s']:9.3f} | {b['render_s']:8.3f} |"
+                      f" {t['mitsuba_s'] / b['render_s']:5.2f} | {setting:<26} |\n")
+        out.write("ratio = Mitsuba's time / texray's time to the same error (> 1: texray faster)\n")
         for line in skipped:
             out.write(f"  not compared: {line}\n")
         for note in dict.fromkeys(n for f in result["frames"] for n in f["notes"]):

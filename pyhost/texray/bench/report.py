@@ -73,13 +73,14 @@ def sweep_rows(sw):
         return rows
     for series, pts in sw["series"].items():
         for p in pts:
-            rows.append([series, p["label"], _spread_ms(p["frame_s"]), f"{p['rmse']:.5f}",
+            rows.append([series, p["label"], _spread_ms(p["frame_s"]),
+                         f"{p['mean_spp']:.1f}" if p.get("mean_spp") is not None else "-", f"{p['rmse']:.5f}",
                          f"{p['rel_rmse']:.4f}" if p.get("rel_rmse") is not None else "-",
                          f"{100 * p['bad_pixels']:.2f}"])
     return rows
 
 
-SWEEP_HEADER = ["series", "setting", "frame ms (min-max)", "RMSE", "RMSE / mean", "% pixels off > 0.02"]
+SWEEP_HEADER = ["series", "setting", "frame ms (min-max)", "mean spp", "RMSE", "RMSE / mean", "% pixels off > 0.02"]
 DISP_SWEEP_HEADER = ["series", "setting", "frame ms, setup included (min-max)", "render ms (min-max)",
                      "camera Mrays/s", "device MiB", "RMSE", "% wrong first hit"]
 

@@ -34,6 +34,9 @@ FILTERS = ("nearest", "bilinear", "trilinear", "anisotropic")
 # bilinear interpolant, which the reference uses), each at BUMP_SPP samples.
 BUMP_DELTAS = ("analytic", 0.5, 1, 2, 4, 8)
 BUMP_SPP = (1, 4, 16)
+# Adaptive sampling (texray.renderer.adaptive): thresholds, each with at most ADAPTIVE_SPP samples.
+ADAPTIVE_THRESHOLDS = (0.1, 0.05, 0.02, 0.01)
+ADAPTIVE_SPP = 64
 
 
 def error_metrics(img, ref):
@@ -84,7 +87,9 @@ def series_for(scene, compiled, spp_values=SPP_VALUES, filter_spp=FILTER_SPP):
     A displaced scene gets the displacement series instead (:func:`displacement_series`)."""
     if displaced(scene):
         return displacement_series(scene)
-    out = [("spp", [(f"{s} spp", {"spp": s}) for s in spp_values])]
+    out = [("spp", [(f"{s} spp", {"spp": s}) for s in spp_values]),
+           (f"adaptive <= {ADAPTIVE_SPP} spp", [(f"adaptive {t}", {"spp": ADAPTIVE_SPP, "adaptive": t})
+                                                 for t in ADAPTIVE_THRESHOLDS])]
     if compiled.textures is not None:
         for f in FILTERS:
             out.append((f"filter={f}", [(f"{f} {s} spp", {"spp": s, "texture_filter": f}) for s in filter_spp]))
@@ -116,13 +121,14 @@ def sweep_scene(scene, compiled, device, width, height, repeat, ref_spp=256, spp
             spp = kw.pop("spp")
             sc = with_bump_delta(scene, kw.pop("bump_texels")) if "bump_texels" in kw else scene
             render(sc, width, height, spp, device=device, **kw)      # warm-up (program build)
-            times, img = [], None
+            times, img, samples = [], None, None
             for i in range(repeat):
                 r = render(sc, width, height, spp, device=device, seed=i, **kw)
                 times.append(r.stats["render_s"])
-                img = r.rgb if img is None else img
+                if img is None:
+                    img, samples = r.rgb, r.stats["samples"]
             rows.append({"label": label, **setting, "frame_s": median_spread(times),
-                         **error_metrics(img, ref.rgb)})
+                         "mean_spp": samples / (width * height), **error_metrics(img, ref.rgb)})
         result["series"][name] = rows
     return result
 
