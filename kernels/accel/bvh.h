@@ -11,17 +11,11 @@
  * float4 arithmetic: SIMD on a CPU driver, one 128-byte read on a GPU. */
 #ifndef TEXRAY_BVH_H
 #define TEXRAY_BVH_H
+#include "geometry/dispatch.h"
 
 #ifndef TX_STACK_SIZE
 #define TX_STACK_SIZE 64
 #endif
-
-/* The scene's geometry as kernel parameters and as arguments; arrays of kinds
- * the scene does not use are NULL and their code is not compiled. */
-#define TX_GEOM_PARAMS __global const float4* nodes, uint nnodes, __global const TriVerts* tris, \
-    __global const Sphere* spheres, __global const Cylinder* cylinders, __global const QuadVerts* quads, \
-    __global const Displaced* displaced, __global const ushort* heights
-#define TX_GEOM_ARGS nodes, nnodes, tris, spheres, cylinders, quads, displaced, heights
 
 /* Slab test for a ray with a zero direction component: such an axis bounds
  * nothing while the origin lies in [lo, hi] (boundaries included) and
@@ -48,13 +42,11 @@ inline float box_entry_parallel(float4 lo, float4 hi, float3 org, float3 inv_d, 
     return tn <= tf ? tn : INFINITY;
 }
 
-typedef struct { float t, b1, b2; uint prim; } HitRec;
-
 /* Entry distances of the ray into the four child boxes of a wide node, INFINITY
  * for a miss. The near and far planes are chosen per axis by the direction's
  * sign (neg), so the empty box (lo = +inf, hi = -inf) of an unused lane gives
  * near = +inf and always misses; the far distance is scaled by 1 + 2 gamma(3)
- * (Ize 2013). For a ray that passes ray_valid (common.h) -- the callers check --
+ * (Ize 2013). For a ray that passes ray_valid (core/common.h) -- the callers check --
  * org is finite and inv_d (safe_inverse) finite and nonzero, so no distance is
  * NaN, not even for the empty boxes; the lane test tn <= tf is false for NaN
  * anyway. A ray with a zero direction component (par) re-tests its missed
@@ -84,72 +76,12 @@ inline float4 box4_entry(__global const float4* nd, float3 org, float3 inv_d, in
     return t;
 }
 
-/* The leaf's primitives against the ray with t in (tmin, h->t): a hit nearer
- * than h->t updates h. With `any` (a compile-time constant at every call) the
- * first hit returns 1 at once; otherwise every primitive is tested and the
- * return value is 0. Each loop runs at most LEAF_COUNT_MASK times (none if
- * first + count wraps). */
-inline int leaf_hit(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, float tmin,
-                    uint first, uint ck, int any, HitRec* h)
-{
-    uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
-    float t;
-    float2 uv;
-    if (kind == PRIM_TRIANGLE) {
-        for (uint i = first; i < end; ++i) {
-            __global const TriVerts* tr = tris + i;
-            float b1, b2;
-            if (triangle_intersect(w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, h->t, &t, &b1, &b2)) {
-                h->t = t; h->b1 = b1; h->b2 = b2; h->prim = i;
-                if (any) return 1;
-            }
-        }
-    }
-#if TX_SPHERES
-    else if (kind == PRIM_SPHERE) {
-        for (uint i = first; i < end; ++i)
-            if (sphere_intersect(spheres + i, org, dir, tmin, h->t, &t)) {
-                h->t = t; h->prim = (PRIM_SPHERE << HIT_KIND_SHIFT) | i;
-                if (any) return 1;
-            }
-    }
-#endif
-#if TX_CYLINDERS
-    else if (kind == PRIM_CYLINDER) {
-        for (uint i = first; i < end; ++i)
-            if (cylinder_intersect(cylinders + i, org, dir, tmin, h->t, &t)) {
-                h->t = t; h->prim = (PRIM_CYLINDER << HIT_KIND_SHIFT) | i;
-                if (any) return 1;
-            }
-    }
-#endif
-#if TX_QUADS
-    else if (kind == PRIM_QUAD) {
-        for (uint i = first; i < end; ++i)
-            if (quad_intersect(quads + i, org, dir, tmin, h->t, &t, &uv)) {
-                h->t = t; h->b1 = uv.x; h->b2 = uv.y; h->prim = (PRIM_QUAD << HIT_KIND_SHIFT) | i;
-                if (any) return 1;
-            }
-    }
-#endif
-#if TX_DISPLACEMENT
-    else if (kind == PRIM_DISPLACED) {
-        for (uint i = first; i < end; ++i)
-            if (displaced_intersect(displaced + i, heights, org, dir, tmin, h->t, any, &t, &uv)) {
-                h->t = t; h->b1 = uv.x; h->b2 = uv.y; h->prim = (PRIM_DISPLACED << HIT_KIND_SHIFT) | i;
-                if (any) return 1;
-            }
-    }
-#endif
-    return 0;
-}
-
 /* Compare-exchange of two (distance, child, count_kind) entries by distance. */
 #define TX_SORT2(i, j) do { if (t[j] < t[i]) { float tt_ = t[i]; t[i] = t[j]; t[j] = tt_; \
     uint c_ = c[i]; c[i] = c[j]; c[j] = c_; c_ = k[i]; k[i] = k[j]; k[j] = c_; } } while (0)
 
 /* Closest hit of the ray (org, dir) with t in (tmin, tmax). prim = TX_MISS on a miss,
- * and for any ray that fails ray_valid (common.h: NaN or infinite components, a zero
+ * and for any ray that fails ray_valid (core/common.h: NaN or infinite components, a zero
  * direction, a NaN or empty interval), before any node is read.
  * The stack holds lanes (child, count_kind) with their entry distance; a lane
  * farther than the closest hit so far is skipped when popped. At most three
@@ -212,7 +144,7 @@ inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, fl
 
 /* 1 if anything is hit with t in (tmin, tmax). Leaf lanes are tested as soon
  * as their box is entered, interior lanes pushed. 0 for a ray that fails ray_valid
- * (common.h), before any node is read. Up to four lanes are pushed per node and one
+ * (core/common.h), before any node is read. Up to four lanes are pushed per node and one
  * popped at once: TX_STACK_SIZE >= 3 x depth + 1 holds them; a push that finds the
  * stack full is dropped (as in bvh_closest: only a tree deeper than the program's
  * bound, where it can miss a hit). Bound: every wide node entered at most once, at

@@ -11,7 +11,7 @@
  * disc = r^2 - l^2 from the distance l between the axis and the ray's line,
  * then the stable roots t0 = c/q, t1 = q/a. It is computed in world space, not
  * in the frame: l |d_perp| = (f x dir) . axis_z with f carried exactly as a
- * TwoSum pair and f x dir by Kahan's FMA algorithm (geom.h): for a ray aimed
+ * TwoSum pair and f x dir by Kahan's FMA algorithm (core/accurate.h): for a ray aimed
  * at the cylinder f x dir is small, and the decision and the hit point keep an
  * accuracy of about u r however far the origin is (rotating f into the frame
  * first would cost u |f|, see sphere.h). The hit points come from the closest
@@ -32,6 +32,8 @@
  * points outward (away from the axis) like ng. */
 #ifndef TEXRAY_CYLINDER_H
 #define TEXRAY_CYLINDER_H
+#include "geometry/hit.h"
+#include "core/quadratic.h"
 
 /* What intersection and geometry derive from the ray. */
 typedef struct {

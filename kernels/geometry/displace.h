@@ -2,7 +2,7 @@
 /* Displacement mapping (the lecture's "Displacement Mapping" slides): the surface
  * S(u, v) = P(u, v) + H(u, v) n(u, v) of a quad, sphere or cylinder (Displaced,
  * texray.layout.DISPLACED), H the bilinear interpolant of a unorm16 height texture (texray.displace.quantize)
- * in world units (texray.displace: conventions of texture.h, v = 0 the bottom row,
+ * in world units (texray.displace: conventions of texture/texture.h, v = 0 the bottom row,
  * texel centres at (i + 0.5) / W; the texture's wrap mode).
  *
  * Every point q of space has local coordinates (u, v, h): for a parallelogram quad
@@ -35,6 +35,8 @@
 #ifndef TEXRAY_DISPLACE_H
 #define TEXRAY_DISPLACE_H
 
+#include "geometry/hit.h"
+#include "core/frame.h"
 #include "texture/wrap.h"
 
 #define TX_DISP_MAX_LEVELS 32
@@ -113,7 +115,7 @@ inline float4 disp_cell_corners(__global const ushort* hts, const DispFrame* f, 
     return f->hmin + q * f->hstep;
 }
 
-/* H(u, v) for (u, v) in [0, 1]^2 and its gradient (dH/du, dH/dv) (texture.h's taps). */
+/* H(u, v) for (u, v) in [0, 1]^2 and its gradient (dH/du, dH/dv) (texture/texture.h's taps). */
 inline float disp_height(__global const ushort* hts, const DispFrame* f, float2 uv, float2* grad)
 {
     float x = uv.x * (float)f->w + 0.5f, y = (1.0f - uv.y) * (float)f->h + 0.5f;
@@ -375,14 +377,14 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
 }
 
 /* Geometry of a hit at t with the primitive's (u, v) = param (from
- * displaced_intersect): the point on the ray, the base surface's outward normal n
- * and its tangents dP/du, dP/dv scaled to the displaced radius (S = c + (r + H) n
- * for spheres: S_u = (r + H) n_u + H_u n, the bump formula's P_u, P_v without its
- * "B small" approximation); returns (dH/du, dH/dv) for bump.h bump_normal, which
- * turns n into the displaced surface's normal. uv: texture coordinates (quads: the
- * corners' uvs interpolated; spheres and cylinders: their uv = param). */
-inline float2 displaced_geom(__global const Displaced* d, __global const ushort* hts, float3 org, float3 dir,
-                             float t, float2 param, Geom* g)
+ * displaced_intersect): the point on the ray; the base surface's tangents dP/du, dP/dv
+ * scaled to the displaced radius (S = c + (r + H) n for spheres: S_u = (r + H) n_u +
+ * H_u n, the bump formula's P_u, P_v without its "B small" approximation); the normal:
+ * the base surface's outward normal n turned by the height field's gradient (dH/du,
+ * dH/dv) with core/frame.h bump_normal, the bump formula. uv: texture coordinates
+ * (quads: the corners' uvs interpolated; spheres and cylinders: their uv = param). */
+inline void displaced_geom(__global const Displaced* d, __global const ushort* hts, float3 org, float3 dir,
+                           float t, float2 param, Geom* g)
 {
     DispFrame f = disp_frame(d, org, dir);
     float2 grad;
@@ -399,7 +401,8 @@ inline float2 displaced_geom(__global const Displaced* d, __global const ushort*
         float2 t2 = (float2)(tu[4], tu[5]), t3 = (float2)(tu[6], tu[7]);
         float2 ta = t0 + u * (t1 - t0), tb = t3 + u * (t2 - t3);
         g->uv = ta + v * (tb - ta);
-        return grad;
+        g->ng = bump_normal(g->ng, g->dpdu, g->dpdv, grad);
+        return;
     }
     float R = f.radius + H;
     float3 q = p - vload3(0, d->p);
@@ -420,7 +423,7 @@ inline float2 displaced_geom(__global const Displaced* d, __global const ushort*
         g->dpdu = (f.span * R) * dphi;
         g->dpdv = (f.z1 - f.z0) * f.n;
     }
-    return grad;
+    g->ng = bump_normal(g->ng, g->dpdu, g->dpdv, grad);
 }
 
 #endif

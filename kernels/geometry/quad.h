@@ -30,7 +30,7 @@
  *   the mean u edge (P1 - P0) + (P2 - P3).
  * - (P0 - org) x dir and (P1 - org) x dir, from which c0, f(1) and the v of
  *   each root follow, use the exact differences (TwoSum pairs) and Kahan's FMA
- *   cross product (geom.h): for a ray aimed at the patch these vectors are
+ *   cross product (core/accurate.h): for a ray aimed at the patch these vectors are
  *   small and so are their errors, so (u, v) keeps ~1e-7 accuracy however far
  *   the origin is (the listing's float32 form loses u |P - org| / size, 1e-3
  *   at 1e4 for a patch of size 1).
@@ -38,6 +38,7 @@
  *   double roots (rays near a curved patch's silhouette) keep their accuracy. */
 #ifndef TEXRAY_QUAD_H
 #define TEXRAY_QUAD_H
+#include "geometry/hit.h"
 
 /* QuadVerts is four float4 (xyz, pad): aligned loads. */
 inline float3 quad_p0(__global const QuadVerts* q) { return ((__global const float4*)q)[0].xyz; }

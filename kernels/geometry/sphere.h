@@ -7,7 +7,7 @@
  * b^2 - 4ac, and the roots from the stable pair t0 = c/q, t1 = q/a. Here l^2 is
  * computed through Lagrange's identity |f - (f.d^)d^|^2 = |f x d|^2 / |d|^2 with
  * the cross product by Kahan's FMA algorithm, and f = org - centre is carried
- * exactly as a TwoSum pair (geom.h). That removes the two float32 roundings the
+ * exactly as a TwoSum pair (core/accurate.h). That removes the two float32 roundings the
  * chapter's vector form keeps, each of size u |f|: for a sphere of radius r
  * seen from a distance |f|, they shift the decision by about u |f| / r of the
  * radius, i.e. by half the radius for r = 1e-3 at 1e4; with them removed the
@@ -22,6 +22,8 @@
  * acos(x / (r sin(pi s))) loses, and has no division by sin(theta) = 0. */
 #ifndef TEXRAY_SPHERE_H
 #define TEXRAY_SPHERE_H
+#include "geometry/hit.h"
+#include "core/quadratic.h"
 
 inline float4 sphere_center_radius(__global const Sphere* s) { return ((__global const float4*)s)[0]; }
 inline float3 sphere_axis_x(__global const Sphere* s) { return ((__global const float4*)s)[1].xyz; }

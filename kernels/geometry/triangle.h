@@ -12,6 +12,7 @@
  * edge function rounds to exactly zero (when the device has fp64). */
 #ifndef TEXRAY_TRIANGLE_H
 #define TEXRAY_TRIANGLE_H
+#include "geometry/hit.h"
 #pragma OPENCL FP_CONTRACT OFF
 #ifdef cl_khr_fp64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -115,7 +116,7 @@ inline void triangle_geom(__global const TriVerts* tv, __global const TriShade* 
     if (!finite3(nc))                  /* edges beyond 2^64: the product overflows; scaled edges */
         nc = cross3(e1 / TX_MAX(TX_MAX(fabs(e1.x), fabs(e1.y)), fabs(e1.z)),   /* give its direction */
                     e2 / TX_MAX(TX_MAX(fabs(e2.x), fabs(e2.y)), fabs(e2.z)));
-    g->ng = normalize3(nc);            /* common.h: also where |nc|^2 under- or overflows */
+    g->ng = normalize3(nc);            /* core/common.h: also where |nc|^2 under- or overflows */
     float2 uv0 = (float2)(0.0f, 0.0f), uv1 = (float2)(1.0f, 0.0f), uv2 = (float2)(0.0f, 1.0f);
     if (uvs != 0 && (ts->flags & TRI_HAS_UVS)) {
         uv0 = vload2(ts->v[0], uvs); uv1 = vload2(ts->v[1], uvs); uv2 = vload2(ts->v[2], uvs);

@@ -1,7 +1,7 @@
 #line 2 "shading/bump.h"
 /* Bump mapping (Blinn, "Simulation of Wrinkled Surfaces", SIGGRAPH 1978; the
  * lecture's "Bump mapping" slides) and normal maps: the material roles that
- * replace the shading normal. Needs common.h, geom.h, wrap.h, mapping.h, texture.h.
+ * replace the shading normal.
  *
  * Direction. The height B(u, v) = height * H(u, v) (H: the texture's red
  * channel) raises the surface along its OUTWARD shading normal n (unit):
@@ -32,6 +32,8 @@
  * differences over one texel smooth it). */
 #ifndef TEXRAY_BUMP_H
 #define TEXRAY_BUMP_H
+#include "core/frame.h"
+#include "texture/texture.h"
 
 /* Red channel of the texture at transformed coordinates t, through its filter. */
 inline float bump_value(__global const half* texels, __global const TextureInfo* ti, TexCoord t)
@@ -55,7 +57,7 @@ inline float2 bump_gradient_bilinear(__global const half* texels, TexLevel lv, i
  * (u, v) at tc (uv and its screen derivatives, which pick the MIP level of a
  * trilinear texture; zero derivatives: level 0). T is the texture's UV
  * transform (chain rule through its linear part); delta as Material.bump_delta
- * (0: one texel of the level in use, texture.h texture_texel_size). Sign: +dB/du
+ * (0: one texel of the level in use, texture/texture.h texture_texel_size). Sign: +dB/du
  * (header comment). */
 inline float2 bump_gradient(__global const half* texels, __global const TextureInfo* ti, TexCoord tc,
                             float height, float delta)
@@ -79,20 +81,6 @@ inline float2 bump_gradient(__global const half* texels, __global const TextureI
     }
     /* s = m0.x u + m0.y v + ..., t = m0.z u + m0.w v + ... */
     return height * (float2)(g.x * m0.x + g.y * m0.z, g.x * m0.y + g.y * m0.w);
-}
-
-/* The bumped unit normal on n's side, from the outward unit normal n, dP/du,
- * dP/dv and (B_u, B_v) (header comment). n itself, bit for bit, where the
- * gradient is zero, where P_u, P_v span no area on n's plane (a pole, a
- * singular projection: zero tangents) or where the result is not finite. */
-inline float3 bump_normal(float3 n, float3 dpdu, float3 dpdv, float2 grad)
-{
-    if (grad.x == 0.0f && grad.y == 0.0f) return n;
-    float3 pu = dpdu - dot3(dpdu, n) * n, pv = dpdv - dot3(dpdv, n) * n;
-    float j = dot3(cross3(pu, pv), n);
-    if (!(fabs(j) > 0.0f)) return n;
-    float3 r = n + (grad.x * cross3(n, pv) - grad.y * cross3(n, pu)) / j;
-    return tx_unit_or(r, n);
 }
 
 /* A unit vector perpendicular to the unit vector n. */

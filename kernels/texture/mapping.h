@@ -1,6 +1,6 @@
 #line 2 "texture/mapping.h"
 /* Projection mappings (the lecture's planar, cylindrical and spherical
- * texture coordinates) and affine UV transforms. Needs common.h (dot3).
+ * texture coordinates) and affine UV transforms.
  *
  * Coordinates travel with their derivatives (pbrt-v4 TexCoord2D): every
  * mapping takes the point p and its screen-space differentials dp/dx, dp/dy
@@ -33,6 +33,7 @@
  * which grow like |dp| / r (finite while |dp| / r < FLT_MAX). */
 #ifndef TEXRAY_MAPPING_H
 #define TEXRAY_MAPPING_H
+#include "core/accurate.h"
 
 #define TX_MAP_PLANAR 0
 #define TX_MAP_CYLINDRICAL 1
@@ -117,11 +118,11 @@ inline TexCoord map_projection(int kind, Frame f, float3 p, float3 dpdx, float3 
  * with orthonormal t1, t2 spanning that plane, J = [d(u,v)/dt1  d(u,v)/dt2]
  * (the mapping's derivatives, t1 and t2 as the differentials) and
  * [dP/du dP/dv] = [t1 t2] J^-1. Where J is singular -- |det J| at most 2^-16 of
- * |J11 J22| + |J12 J21| (as quad.h), or not finite: the projection axis and
+ * |J11 J22| + |J12 J21| (as geometry/quad.h), or not finite: the projection axis and
  * the sphere's poles, where the mapping's derivatives are 0 (header comment),
  * and surfaces the projection sees edge-on (a planar projection of a plane
  * perpendicular to it) -- the parameterization has no inverse: both are 0,
- * and bump.h leaves the normal unperturbed there; so where the inverse overflows. */
+ * and shading/bump.h leaves the normal unperturbed there; so where the inverse overflows. */
 inline void map_tangents(int kind, Frame f, float3 p, float3 n, float3* dpdu, float3* dpdv)
 {
     float3 t1 = normalize3(fabs(n.x) > fabs(n.z) ? (float3)(-n.y, n.x, 0.0f) : (float3)(0.0f, -n.z, n.y));
