@@ -11,34 +11,27 @@
  * float4 arithmetic: SIMD on a CPU driver, one 128-byte read on a GPU. */
 #ifndef TEXRAY_BVH_H
 #define TEXRAY_BVH_H
+#include "core/slab.h"
 #include "geometry/dispatch.h"
 
 #ifndef TX_STACK_SIZE
 #define TX_STACK_SIZE 64
 #endif
 
-/* Slab test for a ray with a zero direction component: such an axis bounds
- * nothing while the origin lies in [lo, hi] (boundaries included) and
- * excludes everything otherwise. The fast test (box4_entry) cannot say so:
- * the zero is replaced by safe_inverse's huge finite value, and
- * (lo - org) * inv is 0 rather than -inf when the origin lies exactly on a
- * box face. The far distance is scaled by 1 + 2 gamma(3), which makes the
- * test conservative under float rounding (Ize 2013, "Robust BVH Ray
- * Traversal"). */
-inline float box_entry_parallel(float4 lo, float4 hi, float3 org, float3 inv_d, float tmin, float tmax)
+/* Entry distance of the ray into the box [lo, hi] (INFINITY for a miss) by the exact
+ * slab test (core/slab.h), for rays with a zero direction component: such an axis
+ * bounds nothing while the origin lies in [lo, hi] (boundaries included) and excludes
+ * everything otherwise. The fast test (box4_entry) cannot say so: the zero is
+ * replaced by safe_inverse's huge finite value, and (lo - org) * inv is 0 rather than
+ * -inf when the origin lies exactly on a box face. The far distance is scaled by
+ * 1 + 2 gamma(3), which makes the test conservative under float rounding (Ize 2013,
+ * "Robust BVH Ray Traversal"). */
+inline float box_entry_parallel(float4 lo, float4 hi, float3 org, float3 dir, float tmin, float tmax)
 {
-    float tn = tmin, tf = tmax;
-    float l[3] = { lo.x, lo.y, lo.z }, h[3] = { hi.x, hi.y, hi.z };
-    float o[3] = { org.x, org.y, org.z }, inv[3] = { inv_d.x, inv_d.y, inv_d.z };
-    for (int k = 0; k < 3; ++k) {
-        if (fabs(inv[k]) >= TX_PARALLEL_INV) {
-            if (o[k] < l[k] || o[k] > h[k]) return INFINITY;
-            continue;
-        }
-        float t0 = (l[k] - o[k]) * inv[k], t1 = (h[k] - o[k]) * inv[k];
-        tn = TX_MAX(tn, TX_MIN(t0, t1));
-        tf = TX_MIN(tf, TX_MAX(t0, t1) * (1.0f + 2.0f * gamma_n(3.0f)));
-    }
+    float tn = tmin, tf = tmax, grow = 1.0f + 2.0f * gamma_n(3.0f);
+    if (!(slab_clip(org.x, dir.x, lo.x, hi.x, grow, &tn, &tf) && slab_clip(org.y, dir.y, lo.y, hi.y, grow, &tn, &tf)
+          && slab_clip(org.z, dir.z, lo.z, hi.z, grow, &tn, &tf)))
+        return INFINITY;
     return tn <= tf ? tn : INFINITY;
 }
 
@@ -51,7 +44,7 @@ inline float box_entry_parallel(float4 lo, float4 hi, float3 org, float3 inv_d, 
  * NaN, not even for the empty boxes; the lane test tn <= tf is false for NaN
  * anyway. A ray with a zero direction component (par) re-tests its missed
  * lanes exactly, so the common case pays one branch. */
-inline float4 box4_entry(__global const float4* nd, float3 org, float3 inv_d, int nx, int ny, int nz,
+inline float4 box4_entry(__global const float4* nd, float3 org, float3 dir, float3 inv_d, int nx, int ny, int nz,
                          float tmin, float tmax, int par)
 {
     float4 lox = nd[0], hix = nd[1], loy = nd[2], hiy = nd[3], loz = nd[4], hiz = nd[5];
@@ -70,7 +63,7 @@ inline float4 box4_entry(__global const float4* nd, float3 org, float3 inv_d, in
         for (int k = 0; k < 4; ++k)
             if (l[k] == INFINITY)
                 l[k] = box_entry_parallel((float4)(ax[k], ay[k], az[k], 0.0f), (float4)(bx[k], by[k], bz[k], 0.0f),
-                                          org, inv_d, tmin, tmax);
+                                          org, dir, tmin, tmax);
         t = (float4)(l[0], l[1], l[2], l[3]);
     }
     return t;
@@ -114,7 +107,7 @@ inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, fl
         } else {
             if (node >= nnodes || budget-- == 0u) return h;   /* only in a broken tree: see above */
             __global const float4* nd = nodes + 8u * node;
-            float4 e = box4_entry(nd, org, inv_d, nx, ny, nz, tmin, h.t, par);
+            float4 e = box4_entry(nd, org, dir, inv_d, nx, ny, nz, tmin, h.t, par);
             uint4 ch = as_uint4(nd[6]), kk = as_uint4(nd[7]);
             float t[4] = { e.x, e.y, e.z, e.w };
             uint c[4] = { ch.x, ch.y, ch.z, ch.w }, k[4] = { kk.x, kk.y, kk.z, kk.w };
@@ -163,7 +156,7 @@ inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tma
     for (;;) {
         if (node >= nnodes || budget-- == 0u) return 0;       /* only in a broken tree: see above */
         __global const float4* nd = nodes + 8u * node;
-        float4 e = box4_entry(nd, org, inv_d, nx, ny, nz, tmin, tmax, par);
+        float4 e = box4_entry(nd, org, dir, inv_d, nx, ny, nz, tmin, tmax, par);
         uint4 ch = as_uint4(nd[6]), kk = as_uint4(nd[7]);
         float t[4] = { e.x, e.y, e.z, e.w };
         uint c[4] = { ch.x, ch.y, ch.z, ch.w }, k[4] = { kk.x, kk.y, kk.z, kk.w };

@@ -28,4 +28,13 @@ inline QuadRoots stable_roots(float a, float b, float c, float root, int c_ok)
     return r;
 }
 
+/* b^2 - a c, a quarter of the discriminant of a t^2 + 2 b t + c, with relative error
+ * <= 2u (core/accurate.h tx_diff_prod): nearly double roots (a ray near a curved
+ * surface's silhouette) keep their accuracy, and the sign that decides hit or miss is
+ * right. */
+inline float quadratic_disc(float a, float b, float c)
+{
+    return tx_diff_prod(b, b, a, c);
+}
+
 #endif

@@ -106,6 +106,26 @@ inline int sphere_root_is_near(const SphereRay* sr, float t)
     return fabs(t - sr->roots.t_near) <= fabs(t - sr->roots.t_far);
 }
 
+/* The sphere's texture coordinates (u, v) = (phi/2pi, 1 - theta/pi) (header
+ * comment) of the point (x, y, z) in its frame, rho = hypot(x, y): the one
+ * parameterization of the sphere, its displaced surface (geometry/displace.h) and
+ * the spherical projection (texture/mapping.h). Both are clamped to [0, 1]: just below
+ * the seam phi = -tiny gives 2pi - tiny, float32 2pi and pi round up, and phi = -0
+ * would give u = -0. On the axis (rho = 0: an exact pole) phi is undefined and taken
+ * as 0 (u = 0). Near the poles phi keeps its accuracy of about u r / rho radians, the
+ * conditioning of the azimuth itself. */
+inline float2 sphere_uv(float x, float y, float z, float rho)
+{
+    float phi = 0.0f;
+    if (rho > 0.0f) {
+        phi = atan2(y, x);
+        if (phi < 0.0f) phi += 2.0f * M_PI_F;
+    }
+    float theta = atan2(rho, z);
+    float u = TX_MIN(TX_MAX(phi * (0.5f * M_1_PI_F), 0.0f), 1.0f);
+    return (float2)(u, TX_MAX(1.0f - theta * M_1_PI_F, 0.0f));
+}
+
 /* Geometry of the hit at t found by sphere_intersect.
  *
  * The point is not org + t dir, whose rounding (u |org + t dir|, and t's own
@@ -118,17 +138,14 @@ inline int sphere_root_is_near(const SphereRay* sr, float t)
  * length's gamma(3) halved by the root, rsqrt's 2 ulp and two products),
  * plus gamma(1) |p| for the final addition of the centre.
  *
- * uv = (phi/2pi, 1 - theta/pi) (header comment), both clamped to [0, 1]: just
- * below the seam phi = -tiny gives 2pi - tiny, float32 2pi and pi round up,
- * and phi = -0 would give u = -0. Derivatives with respect to uv:
+ * uv: sphere_uv. Derivatives with respect to uv:
  * dpdu = 2pi dP/dphi, dpdv = -pi dP/dtheta, with dP/dphi = (-y, x, 0) and dP/dtheta =
  * (z cos(phi), z sin(phi), -rho) in the frame (rho = sqrt(x^2 + y^2)), so that
  * dpdu x dpdv points outward like ng. At an exact pole (rho = 0) dP/dphi
  * vanishes and phi is undefined: phi is taken as 0 (u = 0), dpdu as 2pi r axis_y
  * (the dP/dphi direction for phi = 0, scaled to the equator's length) and
  * dpdv = -pi z axis_x, the limit of dP/dtheta along phi = 0; dpdu x dpdv then
- * still points outward. Near the poles phi keeps its accuracy of about
- * u r / rho radians, the conditioning of the azimuth itself. */
+ * still points outward. */
 inline void sphere_geom(__global const Sphere* s, float3 org, float3 dir, float t, Geom* g)
 {
     float4 cr = sphere_center_radius(s);
@@ -149,18 +166,14 @@ inline void sphere_geom(__global const Sphere* s, float3 org, float3 dir, float 
     float3 ay = cross3(az, ax);
     float x = dot3(pc, ax), y = dot3(pc, ay), z = dot3(pc, az);
     float rho = hypot(x, y);
-    float phi = 0.0f, cos_phi = 1.0f, sin_phi = 0.0f;
+    float cos_phi = 1.0f, sin_phi = 0.0f;
     float3 dp_dphi = r * ay;                         /* pole: see above */
     if (rho > 0.0f) {
-        phi = atan2(y, x);
-        if (phi < 0.0f) phi += 2.0f * M_PI_F;
         cos_phi = x / rho;
         sin_phi = y / rho;
         dp_dphi = x * ay - y * ax;
     }
-    float theta = atan2(rho, z);
-    float u = TX_MIN(TX_MAX(phi * (0.5f * M_1_PI_F), 0.0f), 1.0f);
-    g->uv = (float2)(u, TX_MAX(1.0f - theta * M_1_PI_F, 0.0f));
+    g->uv = sphere_uv(x, y, z, rho);
     float3 dp_dtheta = z * (cos_phi * ax + sin_phi * ay) - rho * az;
     g->dpdu = (2.0f * M_PI_F) * dp_dphi;
     g->dpdv = -M_PI_F * dp_dtheta;

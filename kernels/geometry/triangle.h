@@ -13,6 +13,7 @@
 #ifndef TEXRAY_TRIANGLE_H
 #define TEXRAY_TRIANGLE_H
 #include "geometry/hit.h"
+#include "core/frame.h"
 #pragma OPENCL FP_CONTRACT OFF
 #ifdef cl_khr_fp64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -128,14 +129,10 @@ inline void triangle_geom(__global const TriVerts* tv, __global const TriShade* 
     /* |det| below 1e-9 of the uv extent squared: the uv triangle is degenerate
      * to float precision (its uv edges are parallel to ~1e-9 rad). */
     if (fabs(det) > 1e-9f * scale * scale) {
-        float inv = 1.0f / det;
-        g->dpdu = (d2.y * e1 - d1.y * e2) * inv;
-        g->dpdv = (d1.x * e2 - d2.x * e1) * inv;
+        mul_inverse2(d1, d2, 1.0f / det, e1, e2, &g->dpdu, &g->dpdv);
     } else {
-        float3 n = g->ng;
-        float3 t = fabs(n.x) > fabs(n.z) ? (float3)(-n.y, n.x, 0.0f) : (float3)(0.0f, -n.z, n.y);
-        g->dpdu = normalize3(t);
-        g->dpdv = cross3(n, g->dpdu);
+        g->dpdu = any_tangent(g->ng);
+        g->dpdv = cross3(g->ng, g->dpdu);
     }
 }
 

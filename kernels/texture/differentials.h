@@ -6,6 +6,7 @@
  * rays through the pipeline. */
 #ifndef TEXRAY_DIFFERENTIALS_H
 #define TEXRAY_DIFFERENTIALS_H
+#include "core/frame.h"
 #include "texture/mapping.h"
 
 #define TX_UV_DERIV_MAX 1.0e8f    /* pbrt-v4's clamp of du/dx...: beyond it a footprint is "everything" */
@@ -49,8 +50,12 @@ inline TexCoord uv_differentials(float2 uv, float3 dpdu, float3 dpdv, float3 dpd
     inv = isfinite(inv) ? inv : 0.0f;
     float bx0 = dot3(dpdu, dpdx), bx1 = dot3(dpdv, dpdx);
     float by0 = dot3(dpdu, dpdy), by1 = dot3(dpdv, dpdy);
-    float2 dx = (float2)(a11 * bx0 - a01 * bx1, a00 * bx1 - a01 * bx0) * inv;
-    float2 dy = (float2)(a11 * by0 - a01 * by1, a00 * by1 - a01 * by0) * inv;
+    /* (du, dv) = (b0, b1) G^-1, G = A^T A = [[a00, a01], [a01, a11]] (symmetric), for
+     * both screen directions at once: x = (du/dx, du/dy, -), y = (dv/dx, dv/dy, -). */
+    float3 x, y;
+    mul_inverse2((float2)(a00, a01), (float2)(a01, a11), inv, (float3)(bx0, by0, 0.0f), (float3)(bx1, by1, 0.0f),
+                 &x, &y);
+    float2 dx = (float2)(x.x, y.x), dy = (float2)(x.y, y.y);
     TexCoord r;
     r.uv = uv;
     r.duv_dx = (float2)(isfinite(dx.x) ? clamp(dx.x, -TX_UV_DERIV_MAX, TX_UV_DERIV_MAX) : 0.0f,

@@ -33,7 +33,7 @@
  * which grow like |dp| / r (finite while |dp| / r < FLT_MAX). */
 #ifndef TEXRAY_MAPPING_H
 #define TEXRAY_MAPPING_H
-#include "core/accurate.h"
+#include "core/frame.h"
 
 #define TX_MAP_PLANAR 0
 #define TX_MAP_CYLINDRICAL 1
@@ -117,28 +117,20 @@ inline TexCoord map_projection(int kind, Frame f, float3 p, float3 dpdx, float3 
  * the surface's tangent plane (unit normal n), for bump and normal mapping:
  * with orthonormal t1, t2 spanning that plane, J = [d(u,v)/dt1  d(u,v)/dt2]
  * (the mapping's derivatives, t1 and t2 as the differentials) and
- * [dP/du dP/dv] = [t1 t2] J^-1. Where J is singular -- |det J| at most 2^-16 of
- * |J11 J22| + |J12 J21| (as geometry/quad.h), or not finite: the projection axis and
+ * [dP/du dP/dv] = [t1 t2] J^-1 (core/frame.h reparam_tangents). Where J is singular
+ * -- |det J| at most 2^-16 of |J11 J22| + |J12 J21|, or not finite: the projection axis and
  * the sphere's poles, where the mapping's derivatives are 0 (header comment),
  * and surfaces the projection sees edge-on (a planar projection of a plane
  * perpendicular to it) -- the parameterization has no inverse: both are 0,
  * and shading/bump.h leaves the normal unperturbed there; so where the inverse overflows. */
 inline void map_tangents(int kind, Frame f, float3 p, float3 n, float3* dpdu, float3* dpdv)
 {
-    float3 t1 = normalize3(fabs(n.x) > fabs(n.z) ? (float3)(-n.y, n.x, 0.0f) : (float3)(0.0f, -n.z, n.y));
+    float3 t1 = any_tangent(n);
     float3 t2 = cross3(n, t1);
-    TexCoord tc = map_projection(kind, f, p, t1, t2);
-    float2 a = tc.duv_dx, b = tc.duv_dy;        /* J's columns */
-    float det = a.x * b.y - b.x * a.y;
-    float size = fabs(a.x * b.y) + fabs(b.x * a.y);
-    if (fabs(det) > 1.5258789e-05f * size && size <= FLT_MAX) {   /* 2^-16 */
-        float inv = 1.0f / det;
-        *dpdu = (b.y * t1 - a.y * t2) * inv;
-        *dpdv = (a.x * t2 - b.x * t1) * inv;
-        /* A far projection origin (1e17 from the object) makes J tiny everywhere, its
-         * inverse beyond the float range: no usable tangents there either. */
-        if (finite3(*dpdu) && finite3(*dpdv)) return;
-    }
+    TexCoord tc = map_projection(kind, f, p, t1, t2);     /* J's columns: tc.duv_dx, tc.duv_dy */
+    /* A far projection origin (1e17 from the object) makes J tiny everywhere, its
+     * inverse beyond the float range: no usable tangents there either. */
+    if (reparam_tangents(tc.duv_dx, tc.duv_dy, t1, t2, dpdu, dpdv) && finite3(*dpdu) && finite3(*dpdv)) return;
     *dpdu = *dpdv = (float3)(0.0f);
 }
 
