@@ -231,11 +231,14 @@ inline int disp_search(__global const ushort* hts, const DispFrame* f, float A, 
 }
 
 /* Smallest root s in [0, len] of c0 + c1 s + c2 s^2 that counts (header comment:
- * for any-hit rays, a root where f rises counts only when from_outside). */
+ * for any-hit rays, a root where f rises counts only when from_outside). The
+ * discriminant is Kahan's (core/quadratic.h), as for the bilinear quad: near a double
+ * root (a ray grazing a texel cell's patch) its sign is right, where the plain
+ * difference of products could round it below 0 and drop the hit. */
 inline int disp_quadratic_root(float c0, float c1, float c2, float len, int any, int from_outside, float* s)
 {
     float b = 0.5f * c1;                                  /* core/quadratic.h: half the linear coefficient */
-    float disc = b * b - c2 * c0;
+    float disc = quadratic_disc(c2, b, c0);
     if (!(disc >= 0.0f)) return 0;
     /* Sorted; c2 = 0 (a linear cell) gives one infinite root and the linear one, c1 = c2 = 0
      * NaN or infinite roots, all rejected by the range test below; c1 = disc = 0 a root 0/0
