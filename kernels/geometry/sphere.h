@@ -13,16 +13,12 @@
  * radius, i.e. by half the radius for r = 1e-3 at 1e4; with them removed the
  * decision is exact to a few ulp of l whatever the distance.
  *
- * Texture mapping (the lecture's sphere, and pbrt-v4 Sphere): in the frame
- * x = axis_x, z = axis_z, y = z x x, theta = atan2(sqrt(x^2 + y^2), z) is the
- * polar angle from +z and phi = atan2(y, x) in [0, 2pi) the azimuth from +x
- * toward +y. The lecture's s = theta/pi, t = phi/2pi give uv = (t, 1 - s) =
- * (phi/2pi, 1 - theta/pi): an equirectangular image (v = 0 its bottom row) maps
- * with the north pole at the top. atan2 keeps the sign of y that the lecture's
- * acos(x / (r sin(pi s))) loses, and has no division by sin(theta) = 0. */
+ * Texture mapping: geometry/spherical.h sphere_uv (the lecture's sphere, and
+ * pbrt-v4 Sphere) in the frame x = axis_x, z = axis_z, y = z x x. */
 #ifndef TEXRAY_SPHERE_H
 #define TEXRAY_SPHERE_H
 #include "geometry/hit.h"
+#include "geometry/spherical.h"
 #include "core/quadratic.h"
 
 inline float4 sphere_center_radius(__global const Sphere* s) { return ((__global const float4*)s)[0]; }
@@ -104,26 +100,6 @@ inline int sphere_root_is_near(const SphereRay* sr, float t)
 {
     if (sr->roots.t_near == sr->roots.t_far) return sr->roots.near_ok;
     return fabs(t - sr->roots.t_near) <= fabs(t - sr->roots.t_far);
-}
-
-/* The sphere's texture coordinates (u, v) = (phi/2pi, 1 - theta/pi) (header
- * comment) of the point (x, y, z) in its frame, rho = hypot(x, y): the one
- * parameterization of the sphere, its displaced surface (geometry/displace.h) and
- * the spherical projection (texture/mapping.h). Both are clamped to [0, 1]: just below
- * the seam phi = -tiny gives 2pi - tiny, float32 2pi and pi round up, and phi = -0
- * would give u = -0. On the axis (rho = 0: an exact pole) phi is undefined and taken
- * as 0 (u = 0). Near the poles phi keeps its accuracy of about u r / rho radians, the
- * conditioning of the azimuth itself. */
-inline float2 sphere_uv(float x, float y, float z, float rho)
-{
-    float phi = 0.0f;
-    if (rho > 0.0f) {
-        phi = atan2(y, x);
-        if (phi < 0.0f) phi += 2.0f * M_PI_F;
-    }
-    float theta = atan2(rho, z);
-    float u = TX_MIN(TX_MAX(phi * (0.5f * M_1_PI_F), 0.0f), 1.0f);
-    return (float2)(u, TX_MAX(1.0f - theta * M_1_PI_F, 0.0f));
 }
 
 /* Geometry of the hit at t found by sphere_intersect.
