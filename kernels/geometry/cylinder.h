@@ -158,6 +158,19 @@ inline int cylinder_root_is_near(__global const Cylinder* cy, const CylRay* c, f
     return fabs(t - c->roots.t_near) <= fabs(t - c->roots.t_far);
 }
 
+/* dP/du, dP/dv with respect to the cylinder's (u, v) (header comment), at the point
+ * whose offset from the axis has coordinates (x, y) in the frame (ax, ay = az x ax, az),
+ * |(x, y)| the radius: dpdu = span dP/dtheta = span (x ay - y ax), dpdv = height az
+ * (span = theta_max - theta_min, height = z_max - z_min). The one parameterization of
+ * the cylinder and of its displaced surface (there at the displaced radius,
+ * geometry/displace.h). */
+inline void cylinder_tangents(float x, float y, float span, float height, float3 ax, float3 ay, float3 az,
+                              float3* dpdu, float3* dpdv)
+{
+    *dpdu = span * (x * ay - y * ax);
+    *dpdv = height * az;
+}
+
 /* Geometry of the hit at t found by cylinder_intersect: the root's point
  * (cylinder_point; near or far by cylinder_root_is_near), its radial offset
  * projected onto the circle of radius r (pbrt-v4
@@ -186,8 +199,7 @@ inline void cylinder_geom(__global const Cylinder* cy, float3 org, float3 dir, f
     float x = dot3(radial, ax), y = dot3(radial, ay);
     float rel = cylinder_theta_rel(x, y, cy->theta_min);
     g->uv = (float2)(clamp(rel / span, 0.0f, 1.0f), clamp((z - z_min) / (z_max - z_min), 0.0f, 1.0f));
-    g->dpdu = span * (x * ay - y * ax);
-    g->dpdv = (z_max - z_min) * az;
+    cylinder_tangents(x, y, span, z_max - z_min, ax, ay, az, &g->dpdu, &g->dpdv);
 }
 
 #endif

@@ -36,8 +36,8 @@
 #define TEXRAY_DISPLACE_H
 
 #include "geometry/hit.h"
-#include "geometry/sphere.h"      /* the base shapes' parameterizations: sphere_uv, */
-#include "geometry/cylinder.h"    /* cylinder_theta_rel, */
+#include "geometry/sphere.h"      /* the base shapes' parameterizations: sphere_uv, sphere_tangents, */
+#include "geometry/cylinder.h"    /* cylinder_theta_rel, cylinder_tangents, */
 #include "geometry/quad.h"        /* quad_texcoords */
 #include "core/frame.h"
 #include "core/quadratic.h"
@@ -388,24 +388,22 @@ inline void displaced_geom(__global const Displaced* d, __global const ushort* h
         quad_texcoords(d->uv, param, f.e0, f.e1, g);
         return;
     }
+    /* The base shape's tangents at the displaced radius R, through the point's direction
+     * from the centre (axis): the base parameterization of sphere.h or cylinder.h. */
     float R = f.radius + H;
     float3 q = p - vload3(0, d->p);
-    float x = dot3(q, f.e0), y = dot3(q, f.e1), z = dot3(q, f.n);
-    float rho = hypot(x, y);
-    float3 radial = rho > 0.0f ? (x * f.e0 + y * f.e1) / rho : f.e0;
-    float3 dphi = rho > 0.0f ? (x * f.e1 - y * f.e0) / rho : f.e1;        /* d radial / d phi */
     g->uv = param;
     if (f.shape == DISP_SPHERE) {
-        float3 n = tx_unit_or(q, f.n);
-        float st = rho / TX_MAX(hypot(rho, z), FLT_MIN), ct = z / TX_MAX(hypot(rho, z), FLT_MIN);
-        g->ng = n;
-        g->dpdu = (2.0f * M_PI_F * R * st) * dphi;
-        g->dpdv = (-M_PI_F * R) * (ct * radial - st * f.n);
-        if (!(st > 0.0f)) g->dpdu = (2.0f * M_PI_F * R) * f.e1;               /* pole: as sphere.h */
+        g->ng = tx_unit_or(q, f.n);
+        float3 pc = R * g->ng;
+        float x = dot3(pc, f.e0), y = dot3(pc, f.e1), z = dot3(pc, f.n);
+        sphere_tangents(x, y, z, hypot(x, y), R, f.e0, f.e1, f.n, &g->dpdu, &g->dpdv);
     } else {
-        g->ng = radial;
-        g->dpdu = (f.span * R) * dphi;
-        g->dpdv = (f.z1 - f.z0) * f.n;
+        float x = dot3(q, f.e0), y = dot3(q, f.e1);
+        float rho = hypot(x, y);
+        g->ng = rho > 0.0f ? (x * f.e0 + y * f.e1) / rho : f.e0;
+        cylinder_tangents(R * dot3(g->ng, f.e0), R * dot3(g->ng, f.e1), f.span, f.z1 - f.z0, f.e0, f.e1, f.n,
+                          &g->dpdu, &g->dpdv);
     }
     g->ng = bump_normal(g->ng, g->dpdu, g->dpdv, grad);
 }

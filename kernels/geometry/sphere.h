@@ -102,6 +102,31 @@ inline int sphere_root_is_near(const SphereRay* sr, float t)
     return fabs(t - sr->roots.t_near) <= fabs(t - sr->roots.t_far);
 }
 
+/* dP/du, dP/dv with respect to sphere_uv's (u, v), for the sphere of radius r, at the
+ * point (x, y, z) of its frame (ax, ay = az x ax, az), |(x, y, z)| = r, rho = hypot(x,
+ * y): the one parameterization of the sphere and of its displaced surface (there at the
+ * displaced radius, geometry/displace.h).
+ * dpdu = 2pi dP/dphi, dpdv = -pi dP/dtheta, with dP/dphi = (-y, x, 0) and dP/dtheta =
+ * (z cos(phi), z sin(phi), -rho) in the frame, so that dpdu x dpdv points outward. At an
+ * exact pole (rho = 0) dP/dphi vanishes and phi is undefined: phi is taken as 0 (u = 0),
+ * dpdu as 2pi r ay (the dP/dphi direction for phi = 0, scaled to the equator's length)
+ * and dpdv = -pi z ax, the limit of dP/dtheta along phi = 0; dpdu x dpdv then still
+ * points outward. */
+inline void sphere_tangents(float x, float y, float z, float rho, float r, float3 ax, float3 ay, float3 az,
+                            float3* dpdu, float3* dpdv)
+{
+    float cos_phi = 1.0f, sin_phi = 0.0f;
+    float3 dp_dphi = r * ay;                         /* pole: see above */
+    if (rho > 0.0f) {
+        cos_phi = x / rho;
+        sin_phi = y / rho;
+        dp_dphi = x * ay - y * ax;
+    }
+    float3 dp_dtheta = z * (cos_phi * ax + sin_phi * ay) - rho * az;
+    *dpdu = (2.0f * M_PI_F) * dp_dphi;
+    *dpdv = -M_PI_F * dp_dtheta;
+}
+
 /* Geometry of the hit at t found by sphere_intersect.
  *
  * The point is not org + t dir, whose rounding (u |org + t dir|, and t's own
@@ -114,14 +139,7 @@ inline int sphere_root_is_near(const SphereRay* sr, float t)
  * length's gamma(3) halved by the root, rsqrt's 2 ulp and two products),
  * plus gamma(1) |p| for the final addition of the centre.
  *
- * uv: sphere_uv. Derivatives with respect to uv:
- * dpdu = 2pi dP/dphi, dpdv = -pi dP/dtheta, with dP/dphi = (-y, x, 0) and dP/dtheta =
- * (z cos(phi), z sin(phi), -rho) in the frame (rho = sqrt(x^2 + y^2)), so that
- * dpdu x dpdv points outward like ng. At an exact pole (rho = 0) dP/dphi
- * vanishes and phi is undefined: phi is taken as 0 (u = 0), dpdu as 2pi r axis_y
- * (the dP/dphi direction for phi = 0, scaled to the equator's length) and
- * dpdv = -pi z axis_x, the limit of dP/dtheta along phi = 0; dpdu x dpdv then
- * still points outward. */
+ * uv: geometry/spherical.h sphere_uv; dP/du, dP/dv: sphere_tangents. */
 inline void sphere_geom(__global const Sphere* s, float3 org, float3 dir, float t, Geom* g)
 {
     float4 cr = sphere_center_radius(s);
@@ -142,17 +160,8 @@ inline void sphere_geom(__global const Sphere* s, float3 org, float3 dir, float 
     float3 ay = cross3(az, ax);
     float x = dot3(pc, ax), y = dot3(pc, ay), z = dot3(pc, az);
     float rho = hypot(x, y);
-    float cos_phi = 1.0f, sin_phi = 0.0f;
-    float3 dp_dphi = r * ay;                         /* pole: see above */
-    if (rho > 0.0f) {
-        cos_phi = x / rho;
-        sin_phi = y / rho;
-        dp_dphi = x * ay - y * ax;
-    }
     g->uv = sphere_uv(x, y, z, rho);
-    float3 dp_dtheta = z * (cos_phi * ax + sin_phi * ay) - rho * az;
-    g->dpdu = (2.0f * M_PI_F) * dp_dphi;
-    g->dpdv = -M_PI_F * dp_dtheta;
+    sphere_tangents(x, y, z, rho, r, ax, ay, az, &g->dpdu, &g->dpdv);
 }
 
 #endif
