@@ -104,12 +104,15 @@ inline void surface_geometry(float3 org, float3 dir, const HitRec* h, TX_GEOM_PA
 }
 
 /* Step 2, texture coordinates with their screen-space derivatives (pbrt-v4
- * TextureEvalContext): dp/dx, dp/dy from the camera (texture/differentials.h), only
- * where a trilinear or anisotropic lookup needs them; elsewhere zero, which
+ * TextureEvalContext) into *tcp: dp/dx, dp/dy from the camera (texture/differentials.h),
+ * only where a trilinear or anisotropic lookup needs them; elsewhere zero, which
  * texture/texture.h reads as level 0. A projection mapping of the object replaces the
- * primitive's own uv, and with it g's uv, dP/du and dP/dv. */
-inline TexCoord surface_texcoords(float3 dir, float t, __global const ObjectInfo* objects, __constant Camera* cam,
-                                  uint image_w, uint image_h, uint spp, uint object, Geom* g)
+ * primitive's own uv, and with it g's uv, dP/du and dP/dv. (An out-parameter, not a
+ * returned TexCoord: returned, its struct-returning callees wrote into the caller's
+ * return slot, which left llvm.experimental.noalias.scope.decl calls in the optimized
+ * program that Oclgrind 21.10 cannot run.) */
+inline void surface_texcoords(float3 dir, float t, __global const ObjectInfo* objects, __constant Camera* cam,
+                                  uint image_w, uint image_h, uint spp, uint object, Geom* g, TexCoord* tcp)
 {
     float3 dpdx = (float3)(0.0f), dpdy = (float3)(0.0f);
     TexCoord tc;
@@ -128,7 +131,7 @@ inline TexCoord surface_texcoords(float3 dir, float t, __global const ObjectInfo
             map_tangents(ob->mapping, f, g->p, g->ng, &g->dpdu, &g->dpdv);   /* dP/du, dP/dv of that uv */
         }
     }
-    return tc;
+    *tcp = tc;
 }
 
 /* Step 3, the shading normal: the outward one (the vertex normals' side for meshes with
@@ -225,7 +228,8 @@ inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_
     }
     SurfaceGeom sg;
     surface_geometry(org, dir, h, TX_GEOM_ARGS, TX_SURFACE_ARGS, &sg);
-    TexCoord tc = surface_texcoords(dir, h->t, objects, cam, image_w, image_h, spp, sg.ids.object, &sg.g);
+    TexCoord tc;
+    surface_texcoords(dir, h->t, objects, cam, image_w, image_h, spp, sg.ids.object, &sg.g, &tc);
     __global const Material* m = materials + sg.ids.material;
     float3 ng, ns;
     surface_normals(dir, &sg, tc, m, textures, texels, objects, &ng, &ns);

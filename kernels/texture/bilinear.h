@@ -1,5 +1,5 @@
 #line 2 "texture/bilinear.h"
-/* The bilinear interpolant of one texel cell and its gradient, with the conventions of
+/* The gradient of the bilinear interpolant of one texel cell, with the conventions of
  * texture/texture.h's bilinear_taps: corners c00, c10 (the next column), c01 (the next
  * row), c11, weights ax, ay of the second column and row. Shared by the bump map's
  * exact gradient (shading/bump.h) and the displaced surfaces' height field
