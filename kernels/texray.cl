@@ -1,34 +1,37 @@
 #line 2 "texray.cl"
-/* The whole program: texray.layout's generated declarations are prepended by
- * the host, then every stage. Stages are separate kernels so each can be
- * timed alone (texray bench). */
+/* The whole program, the one file the host builds (texray.device; -I kernels/):
+ * texray.layout's generated declarations are prepended by the host, then this.
+ *
+ * Kernels: render_fused (stages/fused.cl) takes each pixel through every step of a
+ * sample in one work-item -- the default pipeline; the five stage kernels (raygen,
+ * intersect, surface, shadow, shade: stages/) do the same steps one per launch with
+ * per-ray records between them in global memory, for timing each step alone (texray
+ * bench) and for the AOV pass; `occluded` times any-hit traversal alone. Both
+ * pipelines call the same functions and give the same image, bit for bit.
+ *
+ * Folders by role, each header including what it needs (include guards):
+ *   core/      small helpers, sampling, accurate arithmetic, the maths shared by
+ *              several techniques (quadratics, frames, slabs), the camera
+ *   geometry/  what a hit is, each primitive kind (intersection and parameterization)
+ *              and the one dispatch on kinds (geometry/dispatch.h)
+ *   accel/     BVH traversal
+ *   texture/   wrap modes, projection mappings, ray differentials, texture lookups
+ *   shading/   surface evaluation, bump and normal maps, shadows, local illumination
+ *   stages/    the __kernel entry points, which only unpack the work-item id
+ * Every #if uses a name from texray.features.compile_options().
+ *
+ * Floating-point contraction: OpenCL's default (on) for core/common.h and
+ * core/sampler.h, off from core/accurate.h's pragma to the end; see there. The order
+ * of the first three includes is therefore part of the images' bits. */
 #include "core/common.h"
 #include "core/sampler.h"
 #include "core/accurate.h"
-#include "geometry/triangle.h"
-#if TX_SPHERES
-#include "geometry/sphere.h"
-#endif
-#if TX_CYLINDERS
-#include "geometry/cylinder.h"
-#endif
-#if TX_QUADS
-#include "geometry/quad.h"
-#endif
-#if TX_DISPLACEMENT
-#include "geometry/displace.h"
-#endif
+#include "core/camera.h"
+#include "geometry/dispatch.h"
 #include "accel/bvh.h"
-#include "texture/wrap.h"
-#include "texture/mapping.h"
-#include "texture/differentials.h"
-#include "texture/texture.h"
-#if TX_BUMP || TX_NORMAL_MAPS || TX_VERTEX_NORMALS || TX_DISPLACEMENT
-#include "shading/bump.h"
-#endif
-#if TX_VERTEX_NORMALS
-#include "shading/terminator.h"
-#endif
+#include "shading/surface.h"
+#include "shading/shadow.h"
+#include "shading/light.h"
 #include "stages/raygen.cl"
 #include "stages/intersect.cl"
 #include "stages/surface.cl"

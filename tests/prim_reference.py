@@ -1,5 +1,5 @@
-"""float64 numpy references for the analytic primitives of kernels/sphere.h,
-kernels/cylinder.h and kernels/quad.h, vectorized over rays.
+"""float64 numpy references for the analytic primitives of kernels/geometry/sphere.h,
+cylinder.h and quad.h, vectorized over rays.
 
 Each ``*_intersect`` takes ray origins and directions of shape (n, 3) (the
 float32 values the device sees, widened to float64) and returns a dict of

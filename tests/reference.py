@@ -123,10 +123,10 @@ def render_reference(scene, width, height):
     return rgb.reshape(height, width, 3), tri.reshape(height, width), vis_all.reshape(height, width, nl)
 
 
-# --- Texture roles and filters (kernels/texture.h), float64 on the stored half texels ---------
+# --- Texture roles and filters (kernels/texture/texture.h), float64 on the stored half texels ---------
 
 def wrap_index(i, n, mode):
-    """kernels/wrap.h wrap_index for an int array (mode: 0 repeat, 1 clamp, 2 mirror)."""
+    """kernels/texture/wrap.h wrap_index for an int array (mode: 0 repeat, 1 clamp, 2 mirror)."""
     if mode == 1:
         return np.clip(i, 0, n - 1)
     if mode == 2:
@@ -238,7 +238,7 @@ def apply_texture_roles(cs, mats, uv, kd, ks, shin):
 
 
 def aniso_footprint(t, duv_dx, duv_dy):
-    """kernels/texture.h texture_aniso_footprint in float64: (major, width, n, spacing, axis_uv)
+    """kernels/texture/texture.h texture_aniso_footprint in float64: (major, width, n, spacing, axis_uv)
     of the footprints whose transformed screen derivatives are (N, 2) duv_dx, duv_dy: the
     singular values of J = [a b] in level-0 texels (full axis lengths), the probes' width
     max(minor, major / max_aniso, 1), their number ceil(major / width) in [1, max_aniso], their
@@ -263,7 +263,7 @@ def aniso_footprint(t, duv_dx, duv_dy):
 
 
 def anisotropic(t, levels, uv, duv_dx, duv_dy, mode):
-    """kernels/texture.h texture_anisotropic in float64 (derivatives already transformed)."""
+    """kernels/texture/texture.h texture_anisotropic in float64 (derivatives already transformed)."""
     major, width, n, spacing, axis_uv = aniso_footprint(t, duv_dx, duv_dy)
     out = np.zeros((len(uv), 4))
     bad = ~(np.isfinite(major) & (major > 0))

@@ -1,6 +1,7 @@
 #line 2 "core/accurate.h"
-/* What the surface stage needs about a hit, and the accurate arithmetic the
- * analytic primitives (sphere.h, cylinder.h, quad.h) share.
+/* Accurate float32 arithmetic: the error-free transformations the analytic
+ * primitives (geometry/sphere.h, cylinder.h, quad.h), the ray differentials and
+ * the anisotropic footprint share, and a unit vector at any scale.
  *
  * Error-free transformations: Knuth's TwoSum (TAOCP vol. 2, 4.2.2) and
  * Kahan's difference of products with an FMA (Jeannerod, Louvet, Muller,
@@ -11,21 +12,17 @@
  * Both rely on IEEE evaluation order: a build with -cl-unsafe-math-optimizations
  * (or -cl-fast-relaxed-math) may fold their error terms to zero, which leaves
  * plain float32 accuracy, never a wrong sign or a NaN. */
-#ifndef TEXRAY_GEOM_H
-#define TEXRAY_GEOM_H
-/* No FMA contraction (as triangle.h): sphere_geom and cylinder_geom recompute
- * the intersection's roots and must get the very same floats. */
+#ifndef TEXRAY_ACCURATE_H
+#define TEXRAY_ACCURATE_H
+#include "core/common.h"
+/* No FMA contraction from here to the end of the program (a pragma holds to the end of
+ * the translation unit, not of this file; texray.cl): sphere_geom and cylinder_geom
+ * recompute the intersection's roots and must get the very same floats, and the
+ * watertight triangle test (geometry/triangle.h) rounds both products of each edge
+ * function alike. core/common.h and core/sampler.h come before it, with OpenCL's
+ * default (contraction allowed), as they always have: moving this line above them
+ * changes the bits of every image (measured on PoCL). */
 #pragma OPENCL FP_CONTRACT OFF
-
-typedef struct {            /* what the surface stage needs about a hit, in world space */
-    float3 p;               /* the hit point, on the surface */
-    float3 ng;              /* unit geometric normal: outward for sphere/cylinder (away from the
-                             * centre/axis); for the quad normalize(dP/du x dP/dv) of the bilinear
-                             * parameters, the (P1-P0)x(P3-P0) side */
-    float3 dpdu, dpdv;      /* dP/du, dP/dv with respect to the texture coordinates uv below */
-    float2 uv;              /* texture coordinates (conventions in sphere.h, cylinder.h, quad.h) */
-    float3 perr;            /* per-component absolute error bound of p (offset secondary rays along ng) */
-} Geom;
 
 /* a * b - c * d with relative error <= 2u (Kahan's algorithm): no
  * cancellation even where the two products nearly agree. */
@@ -64,26 +61,6 @@ inline void tx_two_diff3(float3 a, float3 b, float3* hi, float3* lo)
 
 /* v / |v| without overflow or underflow at any scale (v is first divided by
  * its largest component); `fallback` where v is zero or not finite. */
-/* The roots of a t^2 + 2 b t + c = 0 (b: half the linear coefficient), given root =
- * sqrt(b^2 - a c) computed by the caller as accurately as its geometry allows: q =
- * -(b + sign(b) root), then c/q and q/a, which never subtract nearly equal numbers
- * (|c/q| <= |q/a|); sorted. c_ok = 0 marks the root c/q, which is 0 when c is, as the
- * surface the ray starts on rather than a hit. */
-typedef struct {
-    float t_near, t_far;
-    int near_ok, far_ok;
-} QuadRoots;
-
-inline QuadRoots stable_roots(float a, float b, float c, float root, int c_ok)
-{
-    float q = -(b + copysign(root, b));
-    float t_small = c / q, t_large = q / a;
-    int small_first = t_small <= t_large;
-    QuadRoots r = { small_first ? t_small : t_large, small_first ? t_large : t_small,
-                    small_first ? c_ok : 1, small_first ? 1 : c_ok };
-    return r;
-}
-
 inline float3 tx_unit_or(float3 v, float3 fallback)
 {
     float m = TX_MAX(TX_MAX(fabs(v.x), fabs(v.y)), fabs(v.z));

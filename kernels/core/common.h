@@ -7,6 +7,10 @@
  * texray.features.compile_options() emits. */
 #ifndef TEXRAY_COMMON_H
 #define TEXRAY_COMMON_H
+/* OpenCL's default, stated: this file and core/sampler.h have always been compiled
+ * with FP contraction allowed (dot3 may become FMAs); core/accurate.h turns it off
+ * for everything after them. */
+#pragma OPENCL FP_CONTRACT ON
 
 /* Unit roundoff of float32 (2^-24). gamma_n(n) = n u / (1 - n u) bounds the
  * relative error of n chained float operations (Higham; pbrt-v4 3.9). */
@@ -60,7 +64,7 @@ inline float safe_inverse(float x)
 }
 
 /* Whether the ray org + t dir, t in (tmin, tmax), can be traced at all. Every traversal
- * entry (bvh.h) answers a miss for any other ray before it reads a node. Written so that
+ * entry (accel/bvh.h) answers a miss for any other ray before it reads a node. Written so that
  * NaN fails every test. Required:
  * - org and dir finite: an infinite or NaN component makes the slab tests NaN, and the
  *   ternary min/max (TX_MIN/TX_MAX) drop a NaN operand, so an unused lane's empty box

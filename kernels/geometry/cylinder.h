@@ -11,7 +11,7 @@
  * disc = r^2 - l^2 from the distance l between the axis and the ray's line,
  * then the stable roots t0 = c/q, t1 = q/a. It is computed in world space, not
  * in the frame: l |d_perp| = (f x dir) . axis_z with f carried exactly as a
- * TwoSum pair and f x dir by Kahan's FMA algorithm (geom.h): for a ray aimed
+ * TwoSum pair and f x dir by Kahan's FMA algorithm (core/accurate.h): for a ray aimed
  * at the cylinder f x dir is small, and the decision and the hit point keep an
  * accuracy of about u r however far the origin is (rotating f into the frame
  * first would cost u |f|, see sphere.h). The hit points come from the closest
@@ -32,6 +32,8 @@
  * points outward (away from the axis) like ng. */
 #ifndef TEXRAY_CYLINDER_H
 #define TEXRAY_CYLINDER_H
+#include "geometry/hit.h"
+#include "core/quadratic.h"
 
 /* What intersection and geometry derive from the ray. */
 typedef struct {
@@ -156,6 +158,19 @@ inline int cylinder_root_is_near(__global const Cylinder* cy, const CylRay* c, f
     return fabs(t - c->roots.t_near) <= fabs(t - c->roots.t_far);
 }
 
+/* dP/du, dP/dv with respect to the cylinder's (u, v) (header comment), at the point
+ * whose offset from the axis has coordinates (x, y) in the frame (ax, ay = az x ax, az),
+ * |(x, y)| the radius: dpdu = span dP/dtheta = span (x ay - y ax), dpdv = height az
+ * (span = theta_max - theta_min, height = z_max - z_min). The one parameterization of
+ * the cylinder and of its displaced surface (there at the displaced radius,
+ * geometry/displace.h). */
+inline void cylinder_tangents(float x, float y, float span, float height, float3 ax, float3 ay, float3 az,
+                              float3* dpdu, float3* dpdv)
+{
+    *dpdu = span * (x * ay - y * ax);
+    *dpdv = height * az;
+}
+
 /* Geometry of the hit at t found by cylinder_intersect: the root's point
  * (cylinder_point; near or far by cylinder_root_is_near), its radial offset
  * projected onto the circle of radius r (pbrt-v4
@@ -184,8 +199,7 @@ inline void cylinder_geom(__global const Cylinder* cy, float3 org, float3 dir, f
     float x = dot3(radial, ax), y = dot3(radial, ay);
     float rel = cylinder_theta_rel(x, y, cy->theta_min);
     g->uv = (float2)(clamp(rel / span, 0.0f, 1.0f), clamp((z - z_min) / (z_max - z_min), 0.0f, 1.0f));
-    g->dpdu = span * (x * ay - y * ax);
-    g->dpdv = (z_max - z_min) * az;
+    cylinder_tangents(x, y, span, z_max - z_min, ax, ay, az, &g->dpdu, &g->dpdv);
 }
 
 #endif

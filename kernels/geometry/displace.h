@@ -2,7 +2,7 @@
 /* Displacement mapping (the lecture's "Displacement Mapping" slides): the surface
  * S(u, v) = P(u, v) + H(u, v) n(u, v) of a quad, sphere or cylinder (Displaced,
  * texray.layout.DISPLACED), H the bilinear interpolant of a unorm16 height texture (texray.displace.quantize)
- * in world units (texray.displace: conventions of texture.h, v = 0 the bottom row,
+ * in world units (texray.displace: conventions of texture/texture.h, v = 0 the bottom row,
  * texel centres at (i + 0.5) / W; the texture's wrap mode).
  *
  * Every point q of space has local coordinates (u, v, h): for a parallelogram quad
@@ -35,7 +35,15 @@
 #ifndef TEXRAY_DISPLACE_H
 #define TEXRAY_DISPLACE_H
 
+#include "geometry/hit.h"
+#include "geometry/sphere.h"      /* the base shapes' parameterizations: sphere_uv, sphere_tangents, */
+#include "geometry/cylinder.h"    /* cylinder_theta_rel, cylinder_tangents, */
+#include "geometry/quad.h"        /* quad_texcoords */
+#include "core/frame.h"
+#include "core/quadratic.h"
+#include "core/slab.h"
 #include "texture/wrap.h"
+#include "texture/bilinear.h"
 
 #define TX_DISP_MAX_LEVELS 32
 /* texray.displace.MAX_STEPS, MAX_REFINE: the host's limits on steps and refine, applied
@@ -90,14 +98,8 @@ inline float3 disp_local(const DispFrame* f, float3 q)
     if (f->shape == DISP_QUAD) return (float3)(dot3(q, f->r0), dot3(q, f->r1), dot3(q, f->n));
     float x = dot3(q, f->e0), y = dot3(q, f->e1), z = dot3(q, f->n);
     float rho = hypot(x, y);
-    if (f->shape == DISP_SPHERE) {
-        float phi = atan2(y, x);
-        if (phi < 0.0f) phi += 2.0f * M_PI_F;
-        return (float3)(TX_MIN(phi * (0.5f * M_1_PI_F), 1.0f), TX_MAX(1.0f - atan2(rho, z) * M_1_PI_F, 0.0f),
-                        hypot(rho, z) - f->radius);
-    }
-    float rel = atan2(y, x) - f->th0;
-    rel -= (2.0f * M_PI_F) * floor(rel * (0.5f * M_1_PI_F));      /* [0, 2pi] */
+    if (f->shape == DISP_SPHERE) return (float3)(sphere_uv(x, y, z, rho), hypot(rho, z) - f->radius);
+    float rel = cylinder_theta_rel(x, y, f->th0);                   /* [0, 2pi] */
     return (float3)(rel / f->span, (z - f->z0) / (f->z1 - f->z0), rho - f->radius);
 }
 
@@ -113,7 +115,7 @@ inline float4 disp_cell_corners(__global const ushort* hts, const DispFrame* f, 
     return f->hmin + q * f->hstep;
 }
 
-/* H(u, v) for (u, v) in [0, 1]^2 and its gradient (dH/du, dH/dv) (texture.h's taps). */
+/* H(u, v) for (u, v) in [0, 1]^2 and its gradient (dH/du, dH/dv) (texture/texture.h's taps). */
 inline float disp_height(__global const ushort* hts, const DispFrame* f, float2 uv, float2* grad)
 {
     float x = uv.x * (float)f->w + 0.5f, y = (1.0f - uv.y) * (float)f->h + 0.5f;
@@ -121,9 +123,8 @@ inline float disp_height(__global const ushort* hts, const DispFrame* f, float2 
     float ax = x - cx, ay = y - cy;
     float4 c = disp_cell_corners(hts, f, (int)cx, (int)cy);
     if (grad) {
-        float dx = (c.y - c.x) * (1.0f - ay) + (c.w - c.z) * ay;
-        float dy = (c.z - c.x) * (1.0f - ax) + (c.w - c.y) * ax;
-        *grad = (float2)(dx * (float)f->w, -dy * (float)f->h);
+        float2 d = bilinear_gradient(c.x, c.y, c.z, c.w, ax, ay);
+        *grad = (float2)(d.x * (float)f->w, -d.y * (float)f->h);
     }
     return (c.x * (1.0f - ax) + c.y * ax) * (1.0f - ay) + (c.z * (1.0f - ax) + c.w * ax) * ay;
 }
@@ -157,17 +158,10 @@ inline int disp_clip(const DispFrame* f, float tmin, float tmax, float* A, float
     if (f->shape == DISP_QUAD) {
         float3 lo = disp_local(f, f->q0);
         float3 ld = (float3)(dot3(f->dir, f->r0), dot3(f->dir, f->r1), dot3(f->dir, f->n));
-        float a[3] = { 0.0f, 0.0f, hlo }, b[3] = { 1.0f, 1.0f, hhi };
-        for (int k = 0; k < 3; ++k) {
-            float o = comp3(lo, k), d = comp3(ld, k);
-            if (d == 0.0f) {
-                if (!(o >= a[k] && o <= b[k])) return 0;
-                continue;
-            }
-            float t0 = (a[k] - o) / d, t1 = (b[k] - o) / d;
-            tn = TX_MAX(tn, TX_MIN(t0, t1));
-            tf = TX_MIN(tf, TX_MAX(t0, t1));
-        }
+        /* (u, v) in [0, 1]^2 and h in [hlo, hhi]: exact slabs, the height range widened by delta */
+        if (!(slab_clip(lo.x, ld.x, 0.0f, 1.0f, 1.0f, &tn, &tf) && slab_clip(lo.y, ld.y, 0.0f, 1.0f, 1.0f, &tn, &tf)
+              && slab_clip(lo.z, ld.z, hlo, hhi, 1.0f, &tn, &tf)))
+            return 0;
     } else if (f->shape == DISP_SPHERE) {
         float a, b;
         if (!disp_ball(f->q0, f->dir, f->radius + hhi, &a, &b)) return 0;
@@ -185,12 +179,7 @@ inline int disp_clip(const DispFrame* f, float tmin, float tmax, float* A, float
         } else if (!(dot3(qp, qp) <= R * R)) {
             return 0;
         }
-        if (zd == 0.0f) {
-            if (!(zo >= f->z0 && zo <= f->z1)) return 0;
-        } else {
-            float t0 = (f->z0 - zo) / zd, t1 = (f->z1 - zo) / zd;
-            tn = TX_MAX(tn, TX_MIN(t0, t1)); tf = TX_MIN(tf, TX_MAX(t0, t1));
-        }
+        if (!slab_clip(zo, zd, f->z0, f->z1, 1.0f, &tn, &tf)) return 0;
     }
     *A = tn; *B = tf;
     return tn <= tf && tn < INFINITY;
@@ -242,20 +231,20 @@ inline int disp_search(__global const ushort* hts, const DispFrame* f, float A, 
 }
 
 /* Smallest root s in [0, len] of c0 + c1 s + c2 s^2 that counts (header comment:
- * for any-hit rays, a root where f rises counts only when from_outside). */
+ * for any-hit rays, a root where f rises counts only when from_outside). The
+ * discriminant is Kahan's (core/quadratic.h), as for the bilinear quad: near a double
+ * root (a ray grazing a texel cell's patch) its sign is right, where the plain
+ * difference of products could round it below 0 and drop the hit. */
 inline int disp_quadratic_root(float c0, float c1, float c2, float len, int any, int from_outside, float* s)
 {
-    float r[2];
-    if (c2 == 0.0f) {
-        r[0] = -c0 / c1; r[1] = INFINITY;                 /* c1 = 0: NaN or inf, rejected below */
-    } else {
-        float disc = c1 * c1 - 4.0f * c2 * c0;
-        if (!(disc >= 0.0f)) return 0;
-        float q = -0.5f * (c1 + copysign(sqrt(disc), c1));
-        float a = q / c2, b = c0 / q;
-        r[0] = TX_MIN(a, b); r[1] = TX_MAX(a, b);
-        if (q == 0.0f) { r[0] = r[1] = -c1 / (2.0f * c2); }
-    }
+    float b = 0.5f * c1;                                  /* core/quadratic.h: half the linear coefficient */
+    float disc = quadratic_disc(c2, b, c0);
+    if (!(disc >= 0.0f)) return 0;
+    /* Sorted; c2 = 0 (a linear cell) gives one infinite root and the linear one, c1 = c2 = 0
+     * NaN or infinite roots, all rejected by the range test below; c1 = disc = 0 a root 0/0
+     * (NaN) beside the double root q / c2 = 0. */
+    QuadRoots qr = stable_roots(c2, b, c0, sqrt(disc), 1);
+    float r[2] = { qr.t_near, qr.t_far };
     for (int k = 0; k < 2; ++k) {
         float x = r[k];
         if (!(x >= 0.0f && x <= len)) continue;
@@ -375,14 +364,15 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
 }
 
 /* Geometry of a hit at t with the primitive's (u, v) = param (from
- * displaced_intersect): the point on the ray, the base surface's outward normal n
- * and its tangents dP/du, dP/dv scaled to the displaced radius (S = c + (r + H) n
- * for spheres: S_u = (r + H) n_u + H_u n, the bump formula's P_u, P_v without its
- * "B small" approximation); returns (dH/du, dH/dv) for bump.h bump_normal, which
- * turns n into the displaced surface's normal. uv: texture coordinates (quads: the
- * corners' uvs interpolated; spheres and cylinders: their uv = param). */
-inline float2 displaced_geom(__global const Displaced* d, __global const ushort* hts, float3 org, float3 dir,
-                             float t, float2 param, Geom* g)
+ * displaced_intersect): the point on the ray; the base surface's tangents dP/du, dP/dv
+ * scaled to the displaced radius (S = c + (r + H) n for spheres: S_u = (r + H) n_u +
+ * H_u n, the bump formula's P_u, P_v without its "B small" approximation); the normal:
+ * the base surface's outward normal n turned by the height field's gradient (dH/du,
+ * dH/dv) with core/frame.h bump_normal, the bump formula. uv: texture coordinates
+ * (quads: those of the plain quad at param, with dP/du, dP/dv taken to them, quad.h
+ * quad_texcoords; spheres and cylinders: their uv = param). */
+inline void displaced_geom(__global const Displaced* d, __global const ushort* hts, float3 org, float3 dir,
+                           float t, float2 param, Geom* g)
 {
     DispFrame f = disp_frame(d, org, dir);
     float2 grad;
@@ -390,37 +380,32 @@ inline float2 displaced_geom(__global const Displaced* d, __global const ushort*
     float3 p = org + t * dir;
     g->p = p;
     g->perr = gamma_n(16.0f) * (abs3(org) + abs3(t * dir) + (float3)(f.delta));
-    float u = param.x, v = param.y;
     if (f.shape == DISP_QUAD) {
-        g->ng = f.n;
-        g->dpdu = f.e0; g->dpdv = f.e1;
-        __global const float* tu = d->uv;
-        float2 t0 = (float2)(tu[0], tu[1]), t1 = (float2)(tu[2], tu[3]);
-        float2 t2 = (float2)(tu[4], tu[5]), t3 = (float2)(tu[6], tu[7]);
-        float2 ta = t0 + u * (t1 - t0), tb = t3 + u * (t2 - t3);
-        g->uv = ta + v * (tb - ta);
-        return grad;
+        /* The height field's gradient is with respect to the patch's own (u, v), and so must
+         * be the tangents it turns the normal with; texture coordinates and the tangents
+         * with respect to them then come from the plain quad's parameterization. */
+        g->ng = bump_normal(f.n, f.e0, f.e1, grad);
+        quad_texcoords(d->uv, param, f.e0, f.e1, g);
+        return;
     }
+    /* The base shape's tangents at the displaced radius R, through the point's direction
+     * from the centre (axis): the base parameterization of sphere.h or cylinder.h. */
     float R = f.radius + H;
     float3 q = p - vload3(0, d->p);
-    float x = dot3(q, f.e0), y = dot3(q, f.e1), z = dot3(q, f.n);
-    float rho = hypot(x, y);
-    float3 radial = rho > 0.0f ? (x * f.e0 + y * f.e1) / rho : f.e0;
-    float3 dphi = rho > 0.0f ? (x * f.e1 - y * f.e0) / rho : f.e1;        /* d radial / d phi */
     g->uv = param;
     if (f.shape == DISP_SPHERE) {
-        float3 n = tx_unit_or(q, f.n);
-        float st = rho / TX_MAX(hypot(rho, z), FLT_MIN), ct = z / TX_MAX(hypot(rho, z), FLT_MIN);
-        g->ng = n;
-        g->dpdu = (2.0f * M_PI_F * R * st) * dphi;
-        g->dpdv = (-M_PI_F * R) * (ct * radial - st * f.n);
-        if (!(st > 0.0f)) g->dpdu = (2.0f * M_PI_F * R) * f.e1;               /* pole: as sphere.h */
+        g->ng = tx_unit_or(q, f.n);
+        float3 pc = R * g->ng;
+        float x = dot3(pc, f.e0), y = dot3(pc, f.e1), z = dot3(pc, f.n);
+        sphere_tangents(x, y, z, hypot(x, y), R, f.e0, f.e1, f.n, &g->dpdu, &g->dpdv);
     } else {
-        g->ng = radial;
-        g->dpdu = (f.span * R) * dphi;
-        g->dpdv = (f.z1 - f.z0) * f.n;
+        float x = dot3(q, f.e0), y = dot3(q, f.e1);
+        float rho = hypot(x, y);
+        g->ng = rho > 0.0f ? (x * f.e0 + y * f.e1) / rho : f.e0;
+        cylinder_tangents(R * dot3(g->ng, f.e0), R * dot3(g->ng, f.e1), f.span, f.z1 - f.z0, f.e0, f.e1, f.n,
+                          &g->dpdu, &g->dpdv);
     }
-    return grad;
+    g->ng = bump_normal(g->ng, g->dpdu, g->dpdv, grad);
 }
 
 #endif

@@ -15,8 +15,8 @@
  * points of the ray and the line give t and v.
  *
  * Degenerate cases need no branch: a parallelogram or trapezoid has c2 = 0,
- * where the stable pair of roots u = q / c2, c0 / q (q = -(c1 + sign(c1)
- * sqrt(disc)) / 2) gives one infinite root (rejected) and the linear one;
+ * where the stable pair of roots u = q / c2, c0 / q (core/quadratic.h, q = -(c1 +
+ * sign(c1) sqrt(disc)) / 2) gives one infinite root (rejected) and the linear one;
  * c2 = c1 = 0, or a ray parallel to the line (|dir x pb| = 0), give NaN or
  * infinite values that every range test rejects.
  *
@@ -30,14 +30,18 @@
  *   the mean u edge (P1 - P0) + (P2 - P3).
  * - (P0 - org) x dir and (P1 - org) x dir, from which c0, f(1) and the v of
  *   each root follow, use the exact differences (TwoSum pairs) and Kahan's FMA
- *   cross product (geom.h): for a ray aimed at the patch these vectors are
+ *   cross product (core/accurate.h): for a ray aimed at the patch these vectors are
  *   small and so are their errors, so (u, v) keeps ~1e-7 accuracy however far
  *   the origin is (the listing's float32 form loses u |P - org| / size, 1e-3
  *   at 1e4 for a patch of size 1).
- * - The discriminant uses Kahan's difference of products, so that nearly
- *   double roots (rays near a curved patch's silhouette) keep their accuracy. */
+ * - The discriminant uses Kahan's difference of products (core/quadratic.h
+ *   quadratic_disc), so that nearly double roots (rays near a curved patch's
+ *   silhouette) keep their accuracy. */
 #ifndef TEXRAY_QUAD_H
 #define TEXRAY_QUAD_H
+#include "geometry/hit.h"
+#include "core/frame.h"
+#include "core/quadratic.h"
 
 /* QuadVerts is four float4 (xyz, pad): aligned loads. */
 inline float3 quad_p0(__global const QuadVerts* q) { return ((__global const float4*)q)[0].xyz; }
@@ -97,18 +101,45 @@ inline int quad_intersect(__global const QuadVerts* qv, float3 org, float3 dir, 
     float c2 = dot3(cross3(p1 - p0, p3 - p2), dir);
     float c0 = dot3(w0, e00);
     float c1 = dot3(w1, e11) - c0 - c2;
-    float disc = tx_diff_prod(c1, c1, 4.0f * c2, c0);
+    float b = 0.5f * c1;                               /* core/quadratic.h: half the linear coefficient */
+    float disc = quadratic_disc(c2, b, c0);
     if (!(disc >= 0.0f)) return 0;
-    float q = -0.5f * (c1 + copysign(sqrt(disc), c1));
+    QuadRoots u = stable_roots(c2, b, c0, sqrt(disc), 1);
     float3 m = TX_MAX(TX_MAX(abs3(q00), abs3(q10)), TX_MAX(abs3(p2 - org), abs3(p3 - org)));
     float t_floor = gamma_n(8.0f) * TX_MAX(TX_MAX(m.x, m.y), m.z) * rsqrt(dot3(dir, dir));
     float3 best = (float3)(tmax, 0.0f, 0.0f);
-    int hit = quad_try_root(q / c2, q00, q10, w0, w1, e00, e11, dir, tmin, t_floor, &best);
-    hit |= quad_try_root(c0 / q, q00, q10, w0, w1, e00, e11, dir, tmin, t_floor, &best);
+    int hit = quad_try_root(u.t_near, q00, q10, w0, w1, e00, e11, dir, tmin, t_floor, &best);
+    hit |= quad_try_root(u.t_far, q00, q10, w0, w1, e00, e11, dir, tmin, t_floor, &best);
     if (!hit) return 0;
     *t = best.x;
     *uv = swap ? best.zy : best.yz;
     return 1;
+}
+
+/* The patch's texture coordinates at its parameters (u, v) = param into g->uv, and
+ * g->dpdu, g->dpdv with respect to them from pu = dP/du, pv = dP/dv: the one
+ * parameterization of plain and displaced quads (geometry/displace.h).
+ *
+ * uv is the bilinear interpolation of the corners' uvs (corner_uv: u0 v0 at P0, u1 v1 at
+ * P1, u2 v2 at P2, u3 v3 at P3; QuadShade.uv, Displaced.uv) at (u, v) (lecture). dpdu,
+ * dpdv are with respect to them: [dP/ds dP/dt] = [dP/du dP/dv] J^-1 with J = d(s, t)/
+ * d(u, v) (core/frame.h reparam_tangents). Where J is singular to float precision, or
+ * not finite, dpdu and dpdv are the derivatives with respect to the bilinear (u, v)
+ * instead. With a mirrored texture (det J < 0) dpdu x dpdv points opposite ng. */
+inline void quad_texcoords(__global const float* corner_uv, float2 param, float3 pu, float3 pv, Geom* g)
+{
+    float u = param.x, v = param.y;
+    __global const float* t = corner_uv;
+    float2 t0 = (float2)(t[0], t[1]), t1 = (float2)(t[2], t[3]);
+    float2 t2 = (float2)(t[4], t[5]), t3 = (float2)(t[6], t[7]);
+    float2 ta = t0 + u * (t1 - t0), tb = t3 + u * (t2 - t3);
+    g->uv = ta + v * (tb - ta);
+    float2 tu = (1.0f - v) * (t1 - t0) + v * (t2 - t3);    /* d(s, t)/du */
+    float2 tv = (1.0f - u) * (t3 - t0) + u * (t2 - t1);    /* d(s, t)/dv */
+    if (!reparam_tangents(tu, tv, pu, pv, &g->dpdu, &g->dpdv)) {
+        g->dpdu = pu;
+        g->dpdv = pv;
+    }
 }
 
 /* Geometry at the bilinear parameters (u, v) of a hit.
@@ -124,14 +155,7 @@ inline int quad_intersect(__global const QuadVerts* qv, float3 org, float3 dir, 
  * (P3 - P1), then to the larger of the normals of triangles (P0, P1, P2) and
  * (P0, P2, P3), then to +z (all four vertices collinear: no normal exists).
  *
- * Texture coordinates: the bilinear interpolation of QuadShade.uv (u0 v0 at
- * P0, u1 v1 at P1, u2 v2 at P2, u3 v3 at P3) at (u, v) (lecture). dpdu, dpdv are
- * with respect to them: [dP/ds dP/dt] = [dP/du dP/dv] J^-1 with J = d(s, t)/d(u, v).
- * Where J is singular to float precision (|det J| at most 2^-16 of |J00 J11| +
- * |J01 J10|: the determinant is then within a few hundred roundings of zero and
- * its inverse would amplify them more than 6e4-fold), or not finite, dpdu and
- * dpdv are the derivatives with respect to the bilinear (u, v) instead. With a
- * mirrored texture (det J < 0) dpdu x dpdv points opposite ng. */
+ * Texture coordinates: quad_texcoords. */
 inline void quad_geom(__global const QuadVerts* qv, __global const QuadShade* qs, float2 param_uv, Geom* g)
 {
     float u = param_uv.x, v = param_uv.y;
@@ -154,23 +178,7 @@ inline void quad_geom(__global const QuadVerts* qv, __global const QuadShade* qs
     }
     g->ng = tx_unit_or(n, (float3)(0.0f, 0.0f, 1.0f));
 
-    __global const float* t = qs->uv;
-    float2 t0 = (float2)(t[0], t[1]), t1 = (float2)(t[2], t[3]);
-    float2 t2 = (float2)(t[4], t[5]), t3 = (float2)(t[6], t[7]);
-    float2 ta = t0 + u * (t1 - t0), tb = t3 + u * (t2 - t3);
-    g->uv = ta + v * (tb - ta);
-    float2 tu = (1.0f - v) * (t1 - t0) + v * (t2 - t3);    /* d(s, t)/du */
-    float2 tv = (1.0f - u) * (t3 - t0) + u * (t2 - t1);    /* d(s, t)/dv */
-    float det = tu.x * tv.y - tv.x * tu.y;
-    float size = fabs(tu.x * tv.y) + fabs(tv.x * tu.y);
-    if (fabs(det) > 1.5258789e-05f * size && size <= FLT_MAX) {   /* 2^-16 */
-        float inv = 1.0f / det;
-        g->dpdu = (tv.y * pu - tu.y * pv) * inv;
-        g->dpdv = (tu.x * pv - tv.x * pu) * inv;
-    } else {
-        g->dpdu = pu;
-        g->dpdv = pv;
-    }
+    quad_texcoords(qs->uv, param_uv, pu, pv, g);
 }
 
 #endif

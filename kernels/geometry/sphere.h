@@ -7,21 +7,19 @@
  * b^2 - 4ac, and the roots from the stable pair t0 = c/q, t1 = q/a. Here l^2 is
  * computed through Lagrange's identity |f - (f.d^)d^|^2 = |f x d|^2 / |d|^2 with
  * the cross product by Kahan's FMA algorithm, and f = org - centre is carried
- * exactly as a TwoSum pair (geom.h). That removes the two float32 roundings the
+ * exactly as a TwoSum pair (core/accurate.h). That removes the two float32 roundings the
  * chapter's vector form keeps, each of size u |f|: for a sphere of radius r
  * seen from a distance |f|, they shift the decision by about u |f| / r of the
  * radius, i.e. by half the radius for r = 1e-3 at 1e4; with them removed the
  * decision is exact to a few ulp of l whatever the distance.
  *
- * Texture mapping (the lecture's sphere, and pbrt-v4 Sphere): in the frame
- * x = axis_x, z = axis_z, y = z x x, theta = atan2(sqrt(x^2 + y^2), z) is the
- * polar angle from +z and phi = atan2(y, x) in [0, 2pi) the azimuth from +x
- * toward +y. The lecture's s = theta/pi, t = phi/2pi give uv = (t, 1 - s) =
- * (phi/2pi, 1 - theta/pi): an equirectangular image (v = 0 its bottom row) maps
- * with the north pole at the top. atan2 keeps the sign of y that the lecture's
- * acos(x / (r sin(pi s))) loses, and has no division by sin(theta) = 0. */
+ * Texture mapping: geometry/spherical.h sphere_uv (the lecture's sphere, and
+ * pbrt-v4 Sphere) in the frame x = axis_x, z = axis_z, y = z x x. */
 #ifndef TEXRAY_SPHERE_H
 #define TEXRAY_SPHERE_H
+#include "geometry/hit.h"
+#include "geometry/spherical.h"
+#include "core/quadratic.h"
 
 inline float4 sphere_center_radius(__global const Sphere* s) { return ((__global const float4*)s)[0]; }
 inline float3 sphere_axis_x(__global const Sphere* s) { return ((__global const float4*)s)[1].xyz; }
@@ -104,6 +102,31 @@ inline int sphere_root_is_near(const SphereRay* sr, float t)
     return fabs(t - sr->roots.t_near) <= fabs(t - sr->roots.t_far);
 }
 
+/* dP/du, dP/dv with respect to sphere_uv's (u, v), for the sphere of radius r, at the
+ * point (x, y, z) of its frame (ax, ay = az x ax, az), |(x, y, z)| = r, rho = hypot(x,
+ * y): the one parameterization of the sphere and of its displaced surface (there at the
+ * displaced radius, geometry/displace.h).
+ * dpdu = 2pi dP/dphi, dpdv = -pi dP/dtheta, with dP/dphi = (-y, x, 0) and dP/dtheta =
+ * (z cos(phi), z sin(phi), -rho) in the frame, so that dpdu x dpdv points outward. At an
+ * exact pole (rho = 0) dP/dphi vanishes and phi is undefined: phi is taken as 0 (u = 0),
+ * dpdu as 2pi r ay (the dP/dphi direction for phi = 0, scaled to the equator's length)
+ * and dpdv = -pi z ax, the limit of dP/dtheta along phi = 0; dpdu x dpdv then still
+ * points outward. */
+inline void sphere_tangents(float x, float y, float z, float rho, float r, float3 ax, float3 ay, float3 az,
+                            float3* dpdu, float3* dpdv)
+{
+    float cos_phi = 1.0f, sin_phi = 0.0f;
+    float3 dp_dphi = r * ay;                         /* pole: see above */
+    if (rho > 0.0f) {
+        cos_phi = x / rho;
+        sin_phi = y / rho;
+        dp_dphi = x * ay - y * ax;
+    }
+    float3 dp_dtheta = z * (cos_phi * ax + sin_phi * ay) - rho * az;
+    *dpdu = (2.0f * M_PI_F) * dp_dphi;
+    *dpdv = -M_PI_F * dp_dtheta;
+}
+
 /* Geometry of the hit at t found by sphere_intersect.
  *
  * The point is not org + t dir, whose rounding (u |org + t dir|, and t's own
@@ -116,17 +139,7 @@ inline int sphere_root_is_near(const SphereRay* sr, float t)
  * length's gamma(3) halved by the root, rsqrt's 2 ulp and two products),
  * plus gamma(1) |p| for the final addition of the centre.
  *
- * uv = (phi/2pi, 1 - theta/pi) (header comment), both clamped to [0, 1]: just
- * below the seam phi = -tiny gives 2pi - tiny, float32 2pi and pi round up,
- * and phi = -0 would give u = -0. Derivatives with respect to uv:
- * dpdu = 2pi dP/dphi, dpdv = -pi dP/dtheta, with dP/dphi = (-y, x, 0) and dP/dtheta =
- * (z cos(phi), z sin(phi), -rho) in the frame (rho = sqrt(x^2 + y^2)), so that
- * dpdu x dpdv points outward like ng. At an exact pole (rho = 0) dP/dphi
- * vanishes and phi is undefined: phi is taken as 0 (u = 0), dpdu as 2pi r axis_y
- * (the dP/dphi direction for phi = 0, scaled to the equator's length) and
- * dpdv = -pi z axis_x, the limit of dP/dtheta along phi = 0; dpdu x dpdv then
- * still points outward. Near the poles phi keeps its accuracy of about
- * u r / rho radians, the conditioning of the azimuth itself. */
+ * uv: geometry/spherical.h sphere_uv; dP/du, dP/dv: sphere_tangents. */
 inline void sphere_geom(__global const Sphere* s, float3 org, float3 dir, float t, Geom* g)
 {
     float4 cr = sphere_center_radius(s);
@@ -147,21 +160,8 @@ inline void sphere_geom(__global const Sphere* s, float3 org, float3 dir, float 
     float3 ay = cross3(az, ax);
     float x = dot3(pc, ax), y = dot3(pc, ay), z = dot3(pc, az);
     float rho = hypot(x, y);
-    float phi = 0.0f, cos_phi = 1.0f, sin_phi = 0.0f;
-    float3 dp_dphi = r * ay;                         /* pole: see above */
-    if (rho > 0.0f) {
-        phi = atan2(y, x);
-        if (phi < 0.0f) phi += 2.0f * M_PI_F;
-        cos_phi = x / rho;
-        sin_phi = y / rho;
-        dp_dphi = x * ay - y * ax;
-    }
-    float theta = atan2(rho, z);
-    float u = TX_MIN(TX_MAX(phi * (0.5f * M_1_PI_F), 0.0f), 1.0f);
-    g->uv = (float2)(u, TX_MAX(1.0f - theta * M_1_PI_F, 0.0f));
-    float3 dp_dtheta = z * (cos_phi * ax + sin_phi * ay) - rho * az;
-    g->dpdu = (2.0f * M_PI_F) * dp_dphi;
-    g->dpdv = -M_PI_F * dp_dtheta;
+    g->uv = sphere_uv(x, y, z, rho);
+    sphere_tangents(x, y, z, rho, r, ax, ay, az, &g->dpdu, &g->dpdv);
 }
 
 #endif

@@ -12,6 +12,8 @@
  * edge function rounds to exactly zero (when the device has fp64). */
 #ifndef TEXRAY_TRIANGLE_H
 #define TEXRAY_TRIANGLE_H
+#include "geometry/hit.h"
+#include "core/frame.h"
 #pragma OPENCL FP_CONTRACT OFF
 #ifdef cl_khr_fp64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -97,11 +99,12 @@ inline float3 tri_p2(__global const TriVerts* tr) { return ((__global const floa
  * P = (1 - b1 - b2) P0 + b1 P1 + b2 P2 for the point and the texture
  * coordinates; ng = normalize((P1 - P0) x (P2 - P0)), the side the vertex
  * order gives. dP/du and dP/dv solve [dP/du dP/dv] [duv1 duv2] = [P1-P0 P2-P0]
- * from the uv differences (pbrt-v4 Triangle::InteractionFromIntersection);
- * a triangle whose edge cross product overflows (edges beyond 2^64) or underflows
- * still gets its unit normal (scaled edges, normalize3);
- * when the uv triangle has (nearly) zero area they are an arbitrary
- * orthonormal frame around ng, so that bump mapping never sees NaN. */
+ * from the uv differences (pbrt-v4 Triangle::InteractionFromIntersection;
+ * core/frame.h reparam_tangents); a triangle whose edge cross product overflows
+ * (edges beyond 2^64) or underflows still gets its unit normal (scaled edges,
+ * normalize3); where [duv1 duv2] is singular to float precision (reparam_tangents:
+ * a uv triangle of (nearly) zero area, or uvs whose differences overflow) they are an
+ * arbitrary orthonormal frame around ng, so that bump mapping never sees NaN. */
 inline void triangle_geom(__global const TriVerts* tv, __global const TriShade* ts, float b1, float b2,
                           __global const float* uvs, Geom* g)
 {
@@ -115,26 +118,15 @@ inline void triangle_geom(__global const TriVerts* tv, __global const TriShade* 
     if (!finite3(nc))                  /* edges beyond 2^64: the product overflows; scaled edges */
         nc = cross3(e1 / TX_MAX(TX_MAX(fabs(e1.x), fabs(e1.y)), fabs(e1.z)),   /* give its direction */
                     e2 / TX_MAX(TX_MAX(fabs(e2.x), fabs(e2.y)), fabs(e2.z)));
-    g->ng = normalize3(nc);            /* common.h: also where |nc|^2 under- or overflows */
+    g->ng = normalize3(nc);            /* core/common.h: also where |nc|^2 under- or overflows */
     float2 uv0 = (float2)(0.0f, 0.0f), uv1 = (float2)(1.0f, 0.0f), uv2 = (float2)(0.0f, 1.0f);
     if (uvs != 0 && (ts->flags & TRI_HAS_UVS)) {
         uv0 = vload2(ts->v[0], uvs); uv1 = vload2(ts->v[1], uvs); uv2 = vload2(ts->v[2], uvs);
     }
     g->uv = b0 * uv0 + b1 * uv1 + b2 * uv2;
-    float2 d1 = uv1 - uv0, d2 = uv2 - uv0;
-    float det = d1.x * d2.y - d1.y * d2.x;
-    float scale = TX_MAX(TX_MAX(fabs(d1.x), fabs(d1.y)), TX_MAX(fabs(d2.x), fabs(d2.y)));
-    /* |det| below 1e-9 of the uv extent squared: the uv triangle is degenerate
-     * to float precision (its uv edges are parallel to ~1e-9 rad). */
-    if (fabs(det) > 1e-9f * scale * scale) {
-        float inv = 1.0f / det;
-        g->dpdu = (d2.y * e1 - d1.y * e2) * inv;
-        g->dpdv = (d1.x * e2 - d2.x * e1) * inv;
-    } else {
-        float3 n = g->ng;
-        float3 t = fabs(n.x) > fabs(n.z) ? (float3)(-n.y, n.x, 0.0f) : (float3)(0.0f, -n.z, n.y);
-        g->dpdu = normalize3(t);
-        g->dpdv = cross3(n, g->dpdu);
+    if (!reparam_tangents(uv1 - uv0, uv2 - uv0, e1, e2, &g->dpdu, &g->dpdv)) {
+        g->dpdu = any_tangent(g->ng);
+        g->dpdv = cross3(g->ng, g->dpdu);
     }
 }
 

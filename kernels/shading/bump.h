@@ -1,7 +1,7 @@
 #line 2 "shading/bump.h"
 /* Bump mapping (Blinn, "Simulation of Wrinkled Surfaces", SIGGRAPH 1978; the
  * lecture's "Bump mapping" slides) and normal maps: the material roles that
- * replace the shading normal. Needs common.h, geom.h, wrap.h, mapping.h, texture.h.
+ * replace the shading normal.
  *
  * Direction. The height B(u, v) = height * H(u, v) (H: the texture's red
  * channel) raises the surface along its OUTWARD shading normal n (unit):
@@ -32,6 +32,9 @@
  * differences over one texel smooth it). */
 #ifndef TEXRAY_BUMP_H
 #define TEXRAY_BUMP_H
+#include "core/frame.h"
+#include "texture/bilinear.h"
+#include "texture/texture.h"
 
 /* Red channel of the texture at transformed coordinates t, through its filter. */
 inline float bump_value(__global const half* texels, __global const TextureInfo* ti, TexCoord t)
@@ -46,16 +49,15 @@ inline float bump_value(__global const half* texels, __global const TextureInfo*
 inline float2 bump_gradient_bilinear(__global const half* texels, TexLevel lv, int mode, float2 st)
 {
     BilinearTaps k = bilinear_taps(texels, lv, mode, st);
-    float dx = (k.t10.x - k.t00.x) * (1.0f - k.ay) + (k.t11.x - k.t01.x) * k.ay;
-    float dy = (k.t01.x - k.t00.x) * (1.0f - k.ax) + (k.t11.x - k.t10.x) * k.ax;
-    return (float2)(dx * (float)lv.w, -dy * (float)lv.h);
+    float2 d = bilinear_gradient(k.t00.x, k.t10.x, k.t01.x, k.t11.x, k.ax, k.ay);
+    return (float2)(d.x * (float)lv.w, -d.y * (float)lv.h);
 }
 
 /* (B_u, B_v) = height * gradient of H(T(u, v)) with respect to the surface's
  * (u, v) at tc (uv and its screen derivatives, which pick the MIP level of a
  * trilinear texture; zero derivatives: level 0). T is the texture's UV
  * transform (chain rule through its linear part); delta as Material.bump_delta
- * (0: one texel of the level in use, texture.h texture_texel_size). Sign: +dB/du
+ * (0: one texel of the level in use, texture/texture.h texture_texel_size). Sign: +dB/du
  * (header comment). */
 inline float2 bump_gradient(__global const half* texels, __global const TextureInfo* ti, TexCoord tc,
                             float height, float delta)
@@ -81,26 +83,6 @@ inline float2 bump_gradient(__global const half* texels, __global const TextureI
     return height * (float2)(g.x * m0.x + g.y * m0.z, g.x * m0.y + g.y * m0.w);
 }
 
-/* The bumped unit normal on n's side, from the outward unit normal n, dP/du,
- * dP/dv and (B_u, B_v) (header comment). n itself, bit for bit, where the
- * gradient is zero, where P_u, P_v span no area on n's plane (a pole, a
- * singular projection: zero tangents) or where the result is not finite. */
-inline float3 bump_normal(float3 n, float3 dpdu, float3 dpdv, float2 grad)
-{
-    if (grad.x == 0.0f && grad.y == 0.0f) return n;
-    float3 pu = dpdu - dot3(dpdu, n) * n, pv = dpdv - dot3(dpdv, n) * n;
-    float j = dot3(cross3(pu, pv), n);
-    if (!(fabs(j) > 0.0f)) return n;
-    float3 r = n + (grad.x * cross3(n, pv) - grad.y * cross3(n, pu)) / j;
-    return tx_unit_or(r, n);
-}
-
-/* A unit vector perpendicular to the unit vector n. */
-inline float3 bump_any_tangent(float3 n)
-{
-    return normalize3(fabs(n.x) > fabs(n.z) ? (float3)(-n.y, n.x, 0.0f) : (float3)(0.0f, -n.z, n.y));
-}
-
 /* The normal a normal map's texel rgb encodes (2 rgb - 1), in world space, as a
  * unit vector; n itself where it encodes the zero vector.
  * Tangent space: T = P_u projected on n's plane, normalized; B = n x T, turned
@@ -117,7 +99,7 @@ inline float3 normal_map_normal(float3 n, float3 dpdu, float3 dpdv, float3 rgb, 
     if (mode & TX_NORMAL_OBJECT) {
         r = (float3)(dot3(nm0, c), dot3(nm1, c), dot3(nm2, c));
     } else {
-        float3 t = tx_unit_or(dpdu - dot3(dpdu, n) * n, bump_any_tangent(n));
+        float3 t = tx_unit_or(dpdu - dot3(dpdu, n) * n, any_tangent(n));
         float3 b = cross3(n, t);
         b = dot3(b, dpdv) < 0.0f ? -b : b;
         r = c.x * t + c.y * b + c.z * n;
@@ -133,7 +115,7 @@ inline float3 bump_turn_toward(float3 a, float3 b, float bound)
 {
     float c = dot3(a, b);
     if (c >= bound) return a;
-    float3 w = tx_unit_or(a - c * b, bump_any_tangent(b));   /* a = -b: any direction will do */
+    float3 w = tx_unit_or(a - c * b, any_tangent(b));   /* a = -b: any direction will do */
     return bound * b + sqrt(1.0f - bound * bound) * w;
 }
 

@@ -1,6 +1,6 @@
 #line 2 "shading/terminator.h"
 /* The shadow terminator of smooth-shaded low-poly meshes (Hanika, "Hacking the
- * Shadow Terminator", Ray Tracing Gems II, ch. 4, 2021). Needs common.h.
+ * Shadow Terminator", Ray Tracing Gems II, ch. 4, 2021).
  *
  * Near the terminator the interpolated vertex normal says a light is above the
  * surface while the flat triangle (or its neighbour) says it is below: the
@@ -14,6 +14,7 @@
  * leaves the mesh. P' = P wherever the vertex normals agree with the face. */
 #ifndef TEXRAY_TERMINATOR_H
 #define TEXRAY_TERMINATOR_H
+#include "core/accurate.h"
 
 /* P' - P for the point p = b0 p0 + b1 p1 + b2 p2 with unit vertex normals n0, n1, n2. */
 inline float3 terminator_lift(float3 p, float3 p0, float3 p1, float3 p2, float3 n0, float3 n1, float3 n2,

@@ -1,6 +1,6 @@
 #line 2 "texture/mapping.h"
 /* Projection mappings (the lecture's planar, cylindrical and spherical
- * texture coordinates) and affine UV transforms. Needs common.h (dot3).
+ * texture coordinates) and affine UV transforms.
  *
  * Coordinates travel with their derivatives (pbrt-v4 TexCoord2D): every
  * mapping takes the point p and its screen-space differentials dp/dx, dp/dy
@@ -19,20 +19,24 @@
  *   planar:      u = x_l, v = y_l                     (one unit = one repeat)
  *   cylindrical: u = phi / 2pi, v = z_l,              phi = atan2(y_l, x_l) in [0, 2pi)
  *   spherical:   u = phi / 2pi, v = 1 - theta / pi,   theta = atan2(sqrt(x_l^2 + y_l^2), z_l)
- *                (the sphere primitive's convention: the +z pole at v = 1, the top row)
+ *                (the sphere primitive's parameterization, geometry/spherical.h: the +z
+ *                pole at v = 1, the top row)
  *
  * u of cylindrical/spherical is in [0, 1) (a value that would round to 1 is
- * returned as the largest float below 1). atan2 is used throughout (never
- * acos), so theta is accurate near the poles.
+ * returned as the largest float below 1): geometry/spherical.h azimuth_u, the
+ * sphere's own. atan2 is used throughout (never acos), so theta is accurate near
+ * the poles.
  *
- * Singularities: on the cylinder/sphere axis (x_l^2 + y_l^2 below FLT_MIN, i.e.
- * exactly on it in float32) phi is undefined: u = atan2(0, +-0) / 2pi is 0 or
- * 0.5 and du/dx = du/dy = 0. At a pole of the sphere the same holds for u and
- * dv is 0 too (theta is not differentiable there); at the frame origin all
+ * Singularities: exactly on the cylinder/sphere axis (x_l = y_l = 0) phi is
+ * undefined: u = 0; there and wherever x_l^2 + y_l^2 is below FLT_MIN,
+ * du/dx = du/dy = 0. At a pole of the sphere the same holds for u and dv is 0
+ * too (theta is not differentiable there); at the frame origin all
  * derivatives are 0. Just off the axis the derivatives are the exact ones,
  * which grow like |dp| / r (finite while |dp| / r < FLT_MAX). */
 #ifndef TEXRAY_MAPPING_H
 #define TEXRAY_MAPPING_H
+#include "core/frame.h"
+#include "geometry/spherical.h"
 
 #define TX_MAP_PLANAR 0
 #define TX_MAP_CYLINDRICAL 1
@@ -40,19 +44,10 @@
 
 #define TX_INV_PI 0.31830988618379067f
 #define TX_INV_2PI 0.15915494309189535f
-#define TX_ONE_MINUS_ULP 0.99999994f      /* largest float below 1 */
 #define TX_MAP_TINY 1.17549435e-38f       /* FLT_MIN: below it r^2 is treated as 0 */
 
 typedef struct { float2 uv; float2 duv_dx, duv_dy; } TexCoord;   /* duv_dx = d(u,v)/d(screen x) */
 typedef struct { float3 origin, x, y, z; } Frame;                  /* orthogonal, equal-length axes */
-
-/* u = phi / 2pi in [0, 1) for phi = atan2(y, x). */
-inline float map_phi_u(float x, float y)
-{
-    float u = atan2(y, x) * TX_INV_2PI;    /* (-0.5, 0.5] */
-    u = u < 0.0f ? u + 1.0f : u;
-    return u < 1.0f ? u : TX_ONE_MINUS_ULP;
-}
 
 inline TexCoord map_planar(Frame f, float3 p, float3 dpdx, float3 dpdy)
 {
@@ -74,7 +69,7 @@ inline TexCoord map_cylindrical(Frame f, float3 p, float3 dpdx, float3 dpdy)
     float xx = dot3(dpdx, f.x), xy = dot3(dpdx, f.y);
     float yx = dot3(dpdy, f.x), yy = dot3(dpdy, f.y);
     TexCoord t;
-    t.uv = (float2)(map_phi_u(x, y), z);
+    t.uv = (float2)(azimuth_u(x, y), z);
     t.duv_dx = (float2)((x * xy - y * xx) * inv_r2 * TX_INV_2PI, dot3(dpdx, f.z));
     t.duv_dy = (float2)((x * yy - y * yx) * inv_r2 * TX_INV_2PI, dot3(dpdy, f.z));
     return t;
@@ -87,8 +82,8 @@ inline TexCoord map_spherical(Frame f, float3 p, float3 dpdx, float3 dpdy)
     float r2 = x * x + y * y;                 /* rho^2 */
     float rho = sqrt(r2);
     float R2 = r2 + z * z;
-    float theta = atan2(rho, z);              /* [0, pi] */
-    /* dtheta = (z drho - rho dz) / R^2 with drho = (x dx + y dy) / rho:
+    /* theta = atan2(rho, z) in [0, pi] (geometry/spherical.h);
+     * dtheta = (z drho - rho dz) / R^2 with drho = (x dx + y dy) / rho:
      *        = (z (x dx + y dy) / rho - rho dz) / R^2 */
     float inv_r2 = r2 >= TX_MAP_TINY ? 1.0f / r2 : 0.0f;
     float inv_rho = r2 >= TX_MAP_TINY ? 1.0f / rho : 0.0f;
@@ -98,7 +93,7 @@ inline TexCoord map_spherical(Frame f, float3 p, float3 dpdx, float3 dpdy)
     float dthx = (z * (x * xx + y * xy) * inv_rho - rho * xz) * inv_R2;
     float dthy = (z * (x * yx + y * yy) * inv_rho - rho * yz) * inv_R2;
     TexCoord t;
-    t.uv = (float2)(map_phi_u(x, y), 1.0f - theta * TX_INV_PI);
+    t.uv = sphere_uv(x, y, z, rho);
     t.duv_dx = (float2)((x * xy - y * xx) * inv_r2 * TX_INV_2PI, -dthx * TX_INV_PI);
     t.duv_dy = (float2)((x * yy - y * yx) * inv_r2 * TX_INV_2PI, -dthy * TX_INV_PI);
     return t;
@@ -116,28 +111,20 @@ inline TexCoord map_projection(int kind, Frame f, float3 p, float3 dpdx, float3 
  * the surface's tangent plane (unit normal n), for bump and normal mapping:
  * with orthonormal t1, t2 spanning that plane, J = [d(u,v)/dt1  d(u,v)/dt2]
  * (the mapping's derivatives, t1 and t2 as the differentials) and
- * [dP/du dP/dv] = [t1 t2] J^-1. Where J is singular -- |det J| at most 2^-16 of
- * |J11 J22| + |J12 J21| (as quad.h), or not finite: the projection axis and
+ * [dP/du dP/dv] = [t1 t2] J^-1 (core/frame.h reparam_tangents). Where J is singular
+ * -- |det J| at most 2^-16 of |J11 J22| + |J12 J21|, or not finite: the projection axis and
  * the sphere's poles, where the mapping's derivatives are 0 (header comment),
  * and surfaces the projection sees edge-on (a planar projection of a plane
  * perpendicular to it) -- the parameterization has no inverse: both are 0,
- * and bump.h leaves the normal unperturbed there; so where the inverse overflows. */
+ * and shading/bump.h leaves the normal unperturbed there; so where the inverse overflows. */
 inline void map_tangents(int kind, Frame f, float3 p, float3 n, float3* dpdu, float3* dpdv)
 {
-    float3 t1 = normalize3(fabs(n.x) > fabs(n.z) ? (float3)(-n.y, n.x, 0.0f) : (float3)(0.0f, -n.z, n.y));
+    float3 t1 = any_tangent(n);
     float3 t2 = cross3(n, t1);
-    TexCoord tc = map_projection(kind, f, p, t1, t2);
-    float2 a = tc.duv_dx, b = tc.duv_dy;        /* J's columns */
-    float det = a.x * b.y - b.x * a.y;
-    float size = fabs(a.x * b.y) + fabs(b.x * a.y);
-    if (fabs(det) > 1.5258789e-05f * size && size <= FLT_MAX) {   /* 2^-16 */
-        float inv = 1.0f / det;
-        *dpdu = (b.y * t1 - a.y * t2) * inv;
-        *dpdv = (a.x * t2 - b.x * t1) * inv;
-        /* A far projection origin (1e17 from the object) makes J tiny everywhere, its
-         * inverse beyond the float range: no usable tangents there either. */
-        if (finite3(*dpdu) && finite3(*dpdv)) return;
-    }
+    TexCoord tc = map_projection(kind, f, p, t1, t2);     /* J's columns: tc.duv_dx, tc.duv_dy */
+    /* A far projection origin (1e17 from the object) makes J tiny everywhere, its
+     * inverse beyond the float range: no usable tangents there either. */
+    if (reparam_tangents(tc.duv_dx, tc.duv_dy, t1, t2, dpdu, dpdv) && finite3(*dpdu) && finite3(*dpdv)) return;
     *dpdu = *dpdv = (float3)(0.0f);
 }
 

@@ -18,6 +18,8 @@
  * addresses every level. */
 #ifndef TEXRAY_TEXTURE_H
 #define TEXRAY_TEXTURE_H
+#include "texture/wrap.h"
+#include "texture/mapping.h"
 
 typedef struct { uint offset; int w, h; } TexLevel;     /* one MIP level: first texel, size */
 
@@ -171,7 +173,7 @@ inline AnisoFootprint texture_aniso_footprint(__global const TextureInfo* ti, fl
     float r = hypot(h, B);
     AnisoFootprint f;
     f.major = sqrt(0.5f * (A + C) + r);
-    /* minor = |det J| / major: no cancellation (geom.h tx_diff_prod), unlike sqrt of the
+    /* minor = |det J| / major: no cancellation (core/accurate.h tx_diff_prod), unlike sqrt of the
      * smaller eigenvalue */
     float minor = fabs(tx_diff_prod(a.x, b.y, a.y, b.x)) / f.major;
     /* max_aniso in [1, 64] (texray.texture.MAX_ANISO_LIMIT; the host checks it): the probe

@@ -19,6 +19,7 @@
  * mode is treated as repeat. */
 #ifndef TEXRAY_WRAP_H
 #define TEXRAY_WRAP_H
+#include "core/accurate.h"
 
 #define TX_WRAP_REPEAT 0
 #define TX_WRAP_CLAMP 1

@@ -1,4 +1,4 @@
-"""Displacement mapping (texray.displace, kernels/displace.h) against float64 references.
+"""Displacement mapping (texray.displace, kernels/geometry/displace.h) against float64 references.
 
 The reference for a displaced quad is a dense float64 root finder on the same height
 field (the bilinear interpolant of the texels, texray.displace.height): f(t) = h - H

@@ -1,4 +1,4 @@
-"""Projection mappings, UV transforms and wrap modes (kernels/mapping.h, kernels/wrap.h,
+"""Projection mappings, UV transforms and wrap modes (kernels/texture/mapping.h, wrap.h,
 texray.mapping): device results against float64 numpy references.
 
 * each projection on random points: uv within 1e-5 (u compared on the circle, so

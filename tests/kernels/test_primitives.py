@@ -1,6 +1,6 @@
-"""Analytic primitives (kernels/sphere.h, cylinder.h, quad.h): intersection and hit
-geometry (kernels/geom.h) through test kernels on the device, against the float64
-references of tests/prim_reference.py.
+"""Analytic primitives (kernels/geometry/sphere.h, cylinder.h, quad.h): intersection and hit
+geometry (kernels/geometry/hit.h, core/accurate.h) through test kernels on the device,
+against the float64 references of tests/prim_reference.py.
 
 * random rays, each primitive: hits, t, uv, p, ng, dpdu, dpdv against the reference;
 * the sphere's poles (exactly on them too) and its phi = 0 seam;
@@ -944,7 +944,7 @@ def test_degenerate_inputs_miss_without_nan(rt):
 
 def _offset_origins(dev, dirs):
     """What the surface stage does: ng turned toward the incoming ray, the point moved
-    along it by |ng| . perr and rounded away (common.h offset_point), in float32."""
+    along it by |ng| . perr and rounded away (core/common.h offset_point), in float32."""
     side = np.where(np.einsum("ij,ij->i", dev["ng"], dirs) > 0, -1.0, 1.0)
     n = (side[:, None] * dev["ng"]).astype(np.float32)
     off = np.einsum("ij,ij->i", np.abs(n), dev["perr"].astype(np.float32)).astype(np.float32)

@@ -1,7 +1,7 @@
 """Kernels never trust their input (issue 12, the kernel half): a NaN or degenerate ray is a
 miss, never an out-of-range index, a crash or a hang.
 
-Rays the traversal rejects before it reads a node (kernels/common.h ray_valid): a NaN or
+Rays the traversal rejects before it reads a node (kernels/core/common.h ray_valid): a NaN or
 infinite component of the origin or the direction, a zero direction or one whose every
 component is below 2^-100 (zero and denormal-length directions), a component above 2^126,
 and a NaN or empty interval (tmin, tmax). They are fired at every primitive kind through
@@ -306,7 +306,7 @@ def test_negative_texels_times_a_huge_tint_stay_finite(device):
 def test_projection_far_from_its_object_gives_finite_tangents(device):
     """A spherical projection whose origin lies 1e17 from the object (the exact scene of fuzz seed
     2027 case 2939, which gave dpdv = (inf, nan, inf)): the Jacobian's inverse overflows float32,
-    so dP/du, dP/dv are 0 (mapping.h), never inf or NaN."""
+    so dP/du, dP/dv are 0 (texture/mapping.h), never inf or NaN."""
     from texray import procedural
     g = procedural.grid(2, 4)
     m = tx.Mesh(g.positions * 0.274 + np.array((0.464, 0.217, -0.279)), g.faces, uvs=g.uvs,

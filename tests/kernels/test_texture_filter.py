@@ -1,5 +1,5 @@
-"""Texture filtering and ray differentials on the device (kernels/texture.h,
-kernels/differentials.h) against float64 numpy references (tests/reference.py).
+"""Texture filtering and ray differentials on the device (kernels/texture/texture.h,
+differentials.h) against float64 numpy references (tests/reference.py).
 
 * texture_eval for nearest, bilinear, trilinear and anisotropic in every wrap mode, odd sizes,
   with a UV transform, on random coordinates and footprints, in each compile-time

@@ -1,5 +1,5 @@
 """Bump maps, normal maps and their robustness, through the renderer's AOVs and images,
-against float64 closed forms (kernels/bump.h, kernels/terminator.h, texray.bump).
+against float64 closed forms (kernels/shading/bump.h, terminator.h, texray.bump).
 
 Heights are chosen so that half-float texels store them exactly (multiples of 1/256
 below 1): the ramp tests then measure the kernels' float32 arithmetic only, hence the

@@ -256,6 +256,13 @@ CONSTANTS = {
 }
 
 
+# Signed codes, emitted without the unsigned suffix (compared with int fields and -1).
+INT_CONSTANTS = {
+    **{f"TX_WRAP_{k.upper()}": v for k, v in WRAP_MODES.items()},
+    **{f"TX_MAP_{k.upper()}": v for k, v in PROJECTION_KINDS.items()},
+}
+
+
 def _check(name, dt):
     if dt.itemsize % 16:
         raise AssertionError(f"{name}: size {dt.itemsize} is not a multiple of 16")
@@ -267,6 +274,8 @@ def opencl_declarations() -> str:
              "#ifndef TEXRAY_LAYOUT_H", "#define TEXRAY_LAYOUT_H"]
     for k, v in CONSTANTS.items():
         lines.append(f"#define {k} {v}u")
+    for k, v in INT_CONSTANTS.items():
+        lines.append(f"#define {k} {v}")
     for name, dt in STRUCTS.items():
         _check(name, dt)
         lines.append("typedef struct {")
