@@ -60,9 +60,8 @@ typedef struct {
  * closer to f's than to the axis'): its error u |f x dir| is then the smaller. */
 inline CylRay cylinder_ray(__global const Cylinder* cy, float3 org, float3 dir)
 {
-    __global const float4* w4 = (__global const float4*)cy;
-    float4 o = w4[0];
-    float3 az = w4[2].xyz;
+    float4 o = cylinder_origin_radius(cy);
+    float3 az = cylinder_axis_z(cy);
     float r = o.w;
     float3 fh, fl;
     tx_two_diff3(org, o.xyz, &fh, &fl);
@@ -114,8 +113,7 @@ inline int cylinder_in_range(__global const Cylinder* cy, const CylRay* c, float
                              float tmin, float tmax, float span)
 {
     if (!(t > tmin && t < tmax)) return 0;
-    __global const float4* w4 = (__global const float4*)cy;
-    float3 ax = w4[1].xyz, az = w4[2].xyz;
+    float3 ax = cylinder_axis_x(cy), az = cylinder_axis_z(cy);
     float z;
     float3 radial = cylinder_point(c, t, side, &z);
     if (!(z >= cy->z_min && z <= cy->z_max)) return 0;
@@ -181,9 +179,8 @@ inline void cylinder_tangents(float x, float y, float span, float height, float3
  * left out, as in pbrt-v4 6.8.5. */
 inline void cylinder_geom(__global const Cylinder* cy, float3 org, float3 dir, float t, Geom* g)
 {
-    __global const float4* w4 = (__global const float4*)cy;
-    float4 o = w4[0];
-    float3 ax = w4[1].xyz, az = w4[2].xyz;
+    float4 o = cylinder_origin_radius(cy);
+    float3 ax = cylinder_axis_x(cy), az = cylinder_axis_z(cy);
     float3 ay = cross3(az, ax);
     float r = o.w, z_min = cy->z_min, z_max = cy->z_max;
     float span = cy->theta_max - cy->theta_min;

@@ -43,11 +43,8 @@
 #include "core/frame.h"
 #include "core/quadratic.h"
 
-/* QuadVerts is four float4 (xyz, pad): aligned loads. */
-inline float3 quad_p0(__global const QuadVerts* q) { return ((__global const float4*)q)[0].xyz; }
-inline float3 quad_p1(__global const QuadVerts* q) { return ((__global const float4*)q)[1].xyz; }
-inline float3 quad_p2(__global const QuadVerts* q) { return ((__global const float4*)q)[2].xyz; }
-inline float3 quad_p3(__global const QuadVerts* q) { return ((__global const float4*)q)[3].xyz; }
+/* QuadVerts is four float4 (xyz, pad), read by quad_p0..quad_p3: accessors generated
+ * from the dtype (texray.device.layout.VECTOR_VIEWS). */
 
 /* The (v, t) of root u (the chapter's second step): the ray org + t dir meets the
  * line pa + v pb (pa = P(u, 0) - org, pb = P(u, 1) - P(u, 0)) where

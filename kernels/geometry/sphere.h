@@ -21,9 +21,8 @@
 #include "geometry/spherical.h"
 #include "core/quadratic.h"
 
-inline float4 sphere_center_radius(__global const Sphere* s) { return ((__global const float4*)s)[0]; }
-inline float3 sphere_axis_x(__global const Sphere* s) { return ((__global const float4*)s)[1].xyz; }
-inline float3 sphere_axis_z(__global const Sphere* s) { return ((__global const float4*)s)[2].xyz; }
+/* Sphere is read as float4 words by sphere_center_radius, sphere_axis_x, sphere_axis_z:
+ * accessors generated from the dtype (texray.device.layout.VECTOR_VIEWS). */
 
 /* c = |f|^2 - r^2 for f = fh + fl, to a few ulp of c even where the origin is
  * near the surface and the two terms nearly cancel (the near root c/q then keeps

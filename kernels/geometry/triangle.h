@@ -90,10 +90,8 @@ inline int triangle_intersect(const WoopRay* w, float3 p0, float3 p1, float3 p2,
     return 1;
 }
 
-/* TriVerts is three float4 (xyz, pad): aligned loads. */
-inline float3 tri_p0(__global const TriVerts* tr) { return ((__global const float4*)tr)[0].xyz; }
-inline float3 tri_p1(__global const TriVerts* tr) { return ((__global const float4*)tr)[1].xyz; }
-inline float3 tri_p2(__global const TriVerts* tr) { return ((__global const float4*)tr)[2].xyz; }
+/* TriVerts is three float4 (xyz, pad), read by tri_p0..tri_p2: accessors generated
+ * from the dtype (texray.device.layout.VECTOR_VIEWS). */
 
 /* Surface geometry of a triangle hit (b1, b2): the lecture's barycentric form
  * P = (1 - b1 - b2) P0 + b1 P1 + b2 P2 for the point and the texture

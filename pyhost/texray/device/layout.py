@@ -256,6 +256,43 @@ CONSTANTS = {
 }
 
 
+# Vector views: the kernels read these runs of a struct's floats as one float4 load
+# (16-byte aligned). For each struct, the accessor prefix and {view: fields}; a view of
+# one float[3] field is a float3 (the load's .xyz), of fields making 4 floats a float4.
+# The accessors are generated from the dtypes' offsets (:func:`vector_views`), so the
+# kernels never assume a field order: a reordered dtype moves them or fails here.
+VECTOR_VIEWS = {
+    "TriVerts": ("tri", {"p0": ("p0",), "p1": ("p1",), "p2": ("p2",)}),
+    "QuadVerts": ("quad", {"p0": ("p0",), "p1": ("p1",), "p2": ("p2",), "p3": ("p3",)}),
+    "Sphere": ("sphere", {"center_radius": ("center", "radius"), "axis_x": ("axis_x",), "axis_z": ("axis_z",)}),
+    "Cylinder": ("cylinder", {"origin_radius": ("origin", "radius"), "axis_x": ("axis_x",),
+                              "axis_z": ("axis_z",)}),
+}
+
+
+def vector_views() -> str:
+    """OpenCL C accessors of :data:`VECTOR_VIEWS`, checked against the dtypes."""
+    f4 = np.dtype("<f4")
+    lines = []
+    for struct, (prefix, views) in VECTOR_VIEWS.items():
+        dt = STRUCTS[struct]
+        for view, fields in views.items():
+            start = dt.fields[fields[0]][1]
+            at, floats = start, 0
+            for name in fields:
+                ftype, off = dt.fields[name][:2]
+                if off != at or ftype.base != f4:
+                    raise AssertionError(f"{struct}.{view}: {name} is not the next float after {at}")
+                at += ftype.itemsize
+                floats += ftype.itemsize // 4
+            if start % 16 or floats not in (3, 4):
+                raise AssertionError(f"{struct}.{view}: {floats} floats at offset {start}: not a float4 word")
+            kind, swizzle = ("float4", "") if floats == 4 else ("float3", ".xyz")
+            lines.append(f"inline {kind} {prefix}_{view}(__global const {struct}* p) "
+                         f"{{ return ((__global const float4*)p)[{start // 16}]{swizzle}; }}")
+    return "\n".join(lines) + "\n"
+
+
 # Signed codes, emitted without the unsigned suffix (compared with int fields and -1).
 INT_CONSTANTS = {
     **{f"TX_WRAP_{k.upper()}": v for k, v in WRAP_MODES.items()},
@@ -284,5 +321,6 @@ def opencl_declarations() -> str:
             dims = "".join(f"[{n}]" for n in shape)
             lines.append(f"    {_C_TYPES[base]} {field}{dims};")
         lines.append(f"}} {name};")
+    lines.append(vector_views())
     lines.append("#endif")
     return "\n".join(lines) + "\n"
