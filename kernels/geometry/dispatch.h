@@ -94,10 +94,11 @@ inline int leaf_hit(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, fl
  * the analytic records carry them). */
 typedef struct { uint material, object, prim; } PrimIds;
 
-/* Surface geometry of the hit h of the ray (org, dir) into *g, by kind (each kind's
+/* `static`: called once, so inlined into surface_eval (shading/surface.h explains).
+ * Surface geometry of the hit h of the ray (org, dir) into *g, by kind (each kind's
  * *_geom: the point, its error bound, the geometric normal, uv and dP/du, dP/dv with
  * respect to uv); returns the hit's ids. h->prim must not be TX_MISS. */
-inline PrimIds hit_geom(TX_GEOM_PARAMS, __global const TriShade* tri_shade, __global const QuadShade* quad_shade,
+static inline PrimIds hit_geom(TX_GEOM_PARAMS, __global const TriShade* tri_shade, __global const QuadShade* quad_shade,
                         __global const float* uvs, float3 org, float3 dir, const HitRec* h, Geom* g)
 {
     uint kind = h->prim >> HIT_KIND_SHIFT, idx = h->prim & HIT_INDEX_MASK;

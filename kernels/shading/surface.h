@@ -14,7 +14,14 @@
  * Code a scene does not need is left out by its feature constants: `if (TX_X)` where
  * the code compiles in every program (the compiler drops the dead branch, and it still
  * type-checks), `#if TX_X` where it calls a header that only such programs include
- * (texray.cl, geometry/dispatch.h). */
+ * (texray.cl, geometry/dispatch.h).
+ *
+ * The steps are `static inline`: each has one call site, and a function of internal
+ * linkage called once is inlined whatever its size, so the five steps compile to the
+ * one function surface_eval was. As plain `inline` (external linkage) PoCL left them
+ * as calls passing their records through memory: the surface stage ran 10-14% slower
+ * on scenes/bench/mixed.toml (paired A/B). Likewise hit_geom and texture/mapping.h's
+ * three mappings. */
 #ifndef TEXRAY_SURFACE_H
 #define TEXRAY_SURFACE_H
 #include "geometry/dispatch.h"
@@ -69,7 +76,7 @@ inline void write_miss_aovs(__global float* aov, uint gid)
 
 /* Step 1, geometry: the kind's Geom and ids (hit_geom); for triangles with vertex
  * normals also their interpolation and the shadow-ray lift (shading/terminator.h). */
-inline void surface_geometry(float3 org, float3 dir, const HitRec* h, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
+static inline void surface_geometry(float3 org, float3 dir, const HitRec* h, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
                              SurfaceGeom* sg)
 {
     sg->ids = hit_geom(TX_GEOM_ARGS, tri_shade, quad_shade, uvs, org, dir, h, &sg->g);
@@ -106,7 +113,7 @@ inline void surface_geometry(float3 org, float3 dir, const HitRec* h, TX_GEOM_PA
  * returned TexCoord: returned, its struct-returning callees wrote into the caller's
  * return slot, which left llvm.experimental.noalias.scope.decl calls in the optimized
  * program that Oclgrind 21.10 cannot run.) */
-inline void surface_texcoords(float3 dir, float t, __global const ObjectInfo* objects, __constant Camera* cam,
+static inline void surface_texcoords(float3 dir, float t, __global const ObjectInfo* objects, __constant Camera* cam,
                                   uint image_w, uint image_h, uint spp, uint object, Geom* g, TexCoord* tcp)
 {
     float3 dpdx = (float3)(0.0f), dpdy = (float3)(0.0f);
@@ -133,7 +140,7 @@ inline void surface_texcoords(float3 dir, float t, __global const ObjectInfo* ob
  * them); a bump or normal map replaces it in that frame (shading/bump.h), before normals
  * face the ray. *ng, *ns: the geometric and shading normals on the side the ray came
  * from (no shading normal facing away: shading_normal_facing). */
-inline void surface_normals(float3 dir, const SurfaceGeom* sg, TexCoord tc, __global const Material* m,
+static inline void surface_normals(float3 dir, const SurfaceGeom* sg, TexCoord tc, __global const Material* m,
                             __global const TextureInfo* textures, __global const half* texels,
                             __global const ObjectInfo* objects, float3* ng, float3* ns)
 {
@@ -167,7 +174,7 @@ inline void surface_normals(float3 dir, const SurfaceGeom* sg, TexCoord tc, __gl
 /* Step 4, the material: textures alter the terms of the local illumination (the
  * lecture): kd, the label over it, ks and n. Each role's code is compiled only when a
  * material uses it. */
-inline MaterialTerms surface_material(__global const Material* m, __global const TextureInfo* textures,
+static inline MaterialTerms surface_material(__global const Material* m, __global const TextureInfo* textures,
                                       __global const half* texels, TexCoord tc)
 {
     MaterialTerms mt = { vload3(0, m->diffuse), vload3(0, m->specular), m->shininess };
@@ -189,7 +196,7 @@ inline MaterialTerms surface_material(__global const Material* m, __global const
  * near 1e38 whose differences overflow; non-finite material data) cannot be shaded: it
  * is taken as a miss, the same answer as for a ray the traversal rejects, so the pixel
  * shows the background rather than NaN. Every finite hit is unaffected. */
-inline void surface_write(const SurfaceGeom* sg, float3 ng, float3 ns, const MaterialTerms* mt, float depth,
+static inline void surface_write(const SurfaceGeom* sg, float3 ng, float3 ns, const MaterialTerms* mt, float depth,
                           __global float* aov, uint gid, Surface* s)
 {
     const Geom* g = &sg->g;

@@ -48,7 +48,9 @@
 typedef struct { float2 uv; float2 duv_dx, duv_dy; } TexCoord;   /* duv_dx = d(u,v)/d(screen x) */
 typedef struct { float3 origin, x, y, z; } Frame;                  /* orthogonal, equal-length axes */
 
-inline TexCoord map_planar(Frame f, float3 p, float3 dpdx, float3 dpdy)
+/* The three mappings are `static`: each is called once (map_projection), so inlined
+ * there whatever its size (shading/surface.h explains). */
+static inline TexCoord map_planar(Frame f, float3 p, float3 dpdx, float3 dpdy)
 {
     float3 d = p - f.origin;
     TexCoord t;
@@ -58,7 +60,7 @@ inline TexCoord map_planar(Frame f, float3 p, float3 dpdx, float3 dpdy)
     return t;
 }
 
-inline TexCoord map_cylindrical(Frame f, float3 p, float3 dpdx, float3 dpdy)
+static inline TexCoord map_cylindrical(Frame f, float3 p, float3 dpdx, float3 dpdy)
 {
     float3 d = p - f.origin;
     float x = dot3(d, f.x), y = dot3(d, f.y), z = dot3(d, f.z);
@@ -74,7 +76,7 @@ inline TexCoord map_cylindrical(Frame f, float3 p, float3 dpdx, float3 dpdy)
     return t;
 }
 
-inline TexCoord map_spherical(Frame f, float3 p, float3 dpdx, float3 dpdy)
+static inline TexCoord map_spherical(Frame f, float3 p, float3 dpdx, float3 dpdy)
 {
     float3 d = p - f.origin;
     float x = dot3(d, f.x), y = dot3(d, f.y), z = dot3(d, f.z);
