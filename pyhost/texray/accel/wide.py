@@ -26,7 +26,7 @@ WIDTH = 4
 
 
 def stack_depth(depth: int) -> int:
-    """Stack entries the device traversal (kernels/bvh.h) holds at most in a wide tree of
+    """Stack entries the device traversal (kernels/accel/bvh.h) holds at most in a wide tree of
     ``depth`` levels: WIDTH - 1 lanes pushed per level (any-hit pushes up to WIDTH and
     pops one at once: give ``features.stack_size_for`` this, which adds that one)."""
     return (WIDTH - 1) * depth

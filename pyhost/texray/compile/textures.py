@@ -15,7 +15,7 @@ def pack(entries):
 
     Each distinct (pixels, kind) is packed once, with its MIP levels when some entry using
     it filters trilinearly or anisotropically (its other entries read level 0). Levels are contiguous: level l
-    starts ``sum_{k<l} w_k h_k`` texels after the entry's ``offset`` (kernels/texture.h
+    starts ``sum_{k<l} w_k h_k`` texels after the entry's ``offset`` (kernels/texture/texture.h
     computes this from width and height). Raises SceneError when the texels exceed the
     32-bit texel offsets."""
     keys, mip = [], {}

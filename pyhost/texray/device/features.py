@@ -24,8 +24,8 @@ class Features:
     specular_maps: bool = False    # some material's ks is a texture
     shininess_maps: bool = False   # some material has a shininess_map
     labels: bool = False           # some material has a label
-    bump: bool = False             # some material has a bump map (kernels/bump.h)
-    normal_maps: bool = False      # some material has a normal map (kernels/bump.h)
+    bump: bool = False             # some material has a bump map (kernels/shading/bump.h)
+    normal_maps: bool = False      # some material has a normal map (kernels/shading/bump.h)
     displacement: bool = False     # some quad, sphere or cylinder is displaced on the device (geometry/displace.h)
     adaptive: bool = False         # the fused kernel samples listed pixels and sums Y^2 (texray.renderer.adaptive)
     stack_size: int = 64           # BVH traversal stack; >= the tree's depth

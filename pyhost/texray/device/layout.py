@@ -42,7 +42,7 @@ PRIM_TRIANGLE = 0
 PRIM_SPHERE = 1
 PRIM_CYLINDER = 2
 PRIM_QUAD = 3
-PRIM_DISPLACED = 4      # a displaced quad, sphere or cylinder (DISPLACED.shape): kernels/displace.h
+PRIM_DISPLACED = 4      # a displaced quad, sphere or cylinder (DISPLACED.shape): kernels/geometry/displace.h
 
 
 def encode_leaf(count, kind=PRIM_TRIANGLE):
@@ -115,7 +115,7 @@ QUAD_SHADE = np.dtype([
 # e1 = axis_z x axis_x, n = axis_z; cylinder z and theta (radians) ranges.
 # The surface is P(u, v) + H(u, v) n(u, v), H in [hmin, hmax] (world units), read
 # bilinearly from ``heights`` (uint16: hmin + q (hmax - hmin) / 65535) at texel ``hoff`` (hw x hh, row 0 on top,
-# wrap: kernels/wrap.h); its min-max pyramid (``levels`` levels, (min, max) pairs)
+# wrap: kernels/texture/wrap.h); its min-max pyramid (``levels`` levels, (min, max) pairs)
 # starts at ``moff`` (texray.displace.minmax_pyramid). method: texray.displace
 # METHOD_IDS | METHOD_ADAPTIVE; steps N, refine M: the search's knobs. uv: texture
 # coordinates of the quad's corners, as QuadShade.uv.
@@ -157,11 +157,11 @@ BUMP_DELTA_ANALYTIC = -1.0
 # the file's top row. A texture's ``levels`` MIP levels (1 = level 0 only) lie
 # contiguously from texel ``offset`` of the shared buffer: level l is
 # max(1, width >> l) x max(1, height >> l) texels and starts after the levels
-# before it (kernels/texture.h texture_level). ``wrap``: kernels/wrap.h
+# before it (kernels/texture/texture.h texture_level). ``wrap``: kernels/texture/wrap.h
 # TX_WRAP_*; ``filter``: FILTER_* below. The lookup coordinates are
 # (u', v') = (m0[0] u + m0[1] v + m1[0], m0[2] u + m0[3] v + m1[1]): the
 # texture's UV transform (texray.mapping.UVTransform). ``max_aniso``: the most
-# probes an anisotropic lookup takes (kernels/texture.h texture_anisotropic).
+# probes an anisotropic lookup takes (kernels/texture/texture.h texture_anisotropic).
 TEXTURE = np.dtype([
     ("offset", "<u4"), ("width", "<u4"), ("height", "<u4"), ("wrap", "<u4"),
     ("m0", "<f4", (4,)),
@@ -176,7 +176,7 @@ PROJECTION_KINDS = {"planar": 0, "cylindrical": 1, "spherical": 2}            # 
 FILTER_NEAREST, FILTER_BILINEAR, FILTER_TRILINEAR, FILTER_ANISOTROPIC = (FILTERS[k] for k in FILTERS)
 
 # --- Per-object data: 128 bytes -----------------------------------------------
-# mapping: -1 = the primitive's own uv, else kernels/mapping.h TX_MAP_* with
+# mapping: -1 = the primitive's own uv, else kernels/texture/mapping.h TX_MAP_* with
 # the projection frame in world space (axes scaled by the projection's scale).
 OBJECT = np.dtype([
     ("mapping", "<i4"), ("pad0", "<i4"), ("pad1", "<i4"), ("pad2", "<i4"),

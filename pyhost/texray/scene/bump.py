@@ -2,7 +2,7 @@
 
 Both read *data* textures: their texel values are used as stored in the file,
 never decoded from sRGB, whatever the texture's colorspace.
-The device side is ``kernels/bump.h``.
+The device side is ``kernels/shading/bump.h``.
 """
 from __future__ import annotations
 

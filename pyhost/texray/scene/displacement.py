@@ -3,7 +3,7 @@ visibility is decided (the lecture's "Displacement Mapping" slides).
 
 The height field is H(u, v) = offset + scale * texture.r (world units; the texture's
 stored values: a data role, never sRGB-decoded), the bilinear interpolant of the
-texels with the conventions of ``kernels/texture.h``: u along columns, v = 0 the
+texels with the conventions of ``kernels/texture/texture.h``: u along columns, v = 0 the
 bottom row, texel centres at ((i + 0.5) / W, 1 - (j + 0.5) / H), the texture's wrap
 mode outside. (u, v) are the primitive's own parameters: the bilinear (u, v) of a
 quad, the uv of a sphere or cylinder (their texture coordinates); the displaced
@@ -14,7 +14,7 @@ Methods (``Displacement.method``):
 * ``"search"``: on the device, the lecture's search between the entry A and exit B of
   the displaced surface's bounding volume: ``steps`` linear steps to the first
   sample on the other side of the surface, then ``refine`` bisection steps
-  (``kernels/displace.h``).
+  (``kernels/geometry/displace.h``).
 * ``"maxmip"``: the exact hierarchical traversal of a min-max MIP pyramid of the
   height field (Tevs, Ihrke, Seidel, "Maximum Mipmaps for Fast, Accurate, and
   Scalable Dynamic Height Field Rendering", I3D 2008), made two-sided so that

@@ -1,5 +1,5 @@
 """The height field H(u, v) of a Displacement as float64 numpy: the bilinear
-interpolant of its texels with the conventions of ``kernels/texture.h`` (u along
+interpolant of its texels with the conventions of ``kernels/texture/texture.h`` (u along
 columns, v = 0 the bottom row, texel centres at ((i + 0.5) / W, 1 - (j + 0.5) / H),
 the wrap mode outside). The reference of the device's lookups and the tessellation's
 heights."""
@@ -9,7 +9,7 @@ import numpy as np
 
 
 def wrap_index(i, n, mode):
-    """kernels/wrap.h wrap_index, vectorized: any integer texel index -> [0, n - 1]."""
+    """kernels/texture/wrap.h wrap_index, vectorized: any integer texel index -> [0, n - 1]."""
     i = np.asarray(i, dtype=np.int64)
     if n <= 1:
         return np.zeros_like(i)

@@ -1,5 +1,5 @@
 """Projection mappings, UV transforms and wrap modes: the host side of
-``kernels/mapping.h`` and ``kernels/wrap.h``.
+``kernels/texture/mapping.h`` and ``kernels/texture/wrap.h``.
 
 * :class:`Projection` -- planar, cylindrical or spherical texture coordinates
   computed from a point's position in an object-space frame (the lecture's
@@ -169,7 +169,7 @@ class Projection:
 
     def device_frame(self) -> np.ndarray:
         """(4, 3) float64 ``origin, k x, k y, k z`` with ``k = scale``: the ``Frame`` to pass to
-        ``kernels/mapping.h``, which folds the scale into equal-length axes (it multiplies
+        ``kernels/texture/mapping.h``, which folds the scale into equal-length axes (it multiplies
         planar u, v and cylindrical v and leaves phi and theta unchanged)."""
         f = self.frame()
         f[1:] *= self.scale

@@ -20,7 +20,7 @@ Filters (``filter=``): ``"nearest"`` (the texel the point falls in),
 ``"bilinear"`` (the default: the four nearest texels, level 0 only) and
 ``"trilinear"`` (bilinear in the two MIP levels around the pixel footprint's
 level of detail, blended; the footprint comes from ray differentials, see
-kernels/texture.h) and ``"anisotropic"`` (up to ``max_aniso`` trilinear probes
+kernels/texture/texture.h) and ``"anisotropic"`` (up to ``max_aniso`` trilinear probes
 along the footprint's major axis at the level of its minor axis, Gaussian
 weighted: Feline, McCormack et al. 1999). Only trilinear and anisotropic
 textures get MIP levels.
