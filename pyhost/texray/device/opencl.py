@@ -157,7 +157,7 @@ class Runtime:
         self.queue = cl.CommandQueue(self.context, properties=cl.command_queue_properties.PROFILING_ENABLE)
         self._programs = {}
         self._lock = threading.Lock()
-        self.build_log = []          # (options, seconds, from_cache) per program built in this process
+        self.build_log = []          # (options, seconds) per program built in this process
 
     def local_size(self, override=None):
         """Work-group size for the one-ray-per-work-item kernels, or None to let the driver
