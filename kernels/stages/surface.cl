@@ -33,9 +33,10 @@ inline void write_miss_aovs(__global float* aov, uint gid)
 
 /* Evaluates the hit h of the ray (org, dir) into *s (s->valid = 0 for a miss); with
  * TX_AOVS and aov != NULL also writes record gid of the AOV buffer. */
-inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
-                         __global float* aov, uint gid, Surface* s)
+TX_OUT_OF_LINE void surface_eval_v(float4 org4, float4 dir4, HitRec hit, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
+                                   __global float* aov, uint gid, Surface* s)
 {
+    float3 org = org4.xyz, dir = dir4.xyz;     /* float4, not float3: common.h */
     const HitRec* h = &hit;
     if (h->prim == TX_MISS) {
         s->valid = 0u;
@@ -196,6 +197,12 @@ inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_
 #if TX_AOVS
     if (aov) write_aovs(aov, gid, &g, ns, h->t * sqrt(dot3(dir, dir)), prim, object);
 #endif
+}
+
+inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
+                         __global float* aov, uint gid, Surface* s)
+{
+    surface_eval_v((float4)(org, 0.0f), (float4)(dir, 0.0f), hit, TX_GEOM_ARGS, TX_SURFACE_ARGS, aov, gid, s);
 }
 
 __kernel void surface(__global const Ray* rays, __global const Hit* hits, __global Surface* out, uint n,
