@@ -89,8 +89,9 @@ inline float4 box4_entry(__global const float4* nd, float3 org, float3 dir, floa
  * index below nnodes, and returns what it found so far otherwise -- an out-of-range
  * child or a cycle in a corrupt node array ends the traversal instead of reading past
  * the array or running forever (two integer tests per node, within the timing noise). */
-inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
+TX_OUT_OF_LINE HitRec bvh_closest_v(TX_GEOM_PARAMS, float4 org4, float4 dir4, float tmin, float tmax)
 {
+    float3 org = org4.xyz, dir = dir4.xyz;     /* float4, not float3: common.h */
     HitRec h = { tmax, 0.0f, 0.0f, TX_MISS };
     if (nnodes == 0u || !ray_valid(org, dir, tmin, tmax)) return h;
     WoopRay w = woop_setup(org, dir);
@@ -135,6 +136,11 @@ inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, fl
 }
 #undef TX_SORT2
 
+inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
+{
+    return bvh_closest_v(TX_GEOM_ARGS, (float4)(org, 0.0f), (float4)(dir, 0.0f), tmin, tmax);
+}
+
 /* 1 if anything is hit with t in (tmin, tmax). Leaf lanes are tested as soon
  * as their box is entered, interior lanes pushed. 0 for a ray that fails ray_valid
  * (core/common.h), before any node is read. Up to four lanes are pushed per node and one
@@ -142,8 +148,9 @@ inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, fl
  * stack full is dropped (as in bvh_closest: only a tree deeper than the program's
  * bound, where it can miss a hit). Bound: every wide node entered at most once, at
  * most nnodes iterations, enforced as in bvh_closest (0 for a corrupt tree). */
-inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
+TX_OUT_OF_LINE int bvh_any_v(TX_GEOM_PARAMS, float4 org4, float4 dir4, float tmin, float tmax)
 {
+    float3 org = org4.xyz, dir = dir4.xyz;     /* float4, not float3: common.h */
     if (nnodes == 0u || !ray_valid(org, dir, tmin, tmax)) return 0;
     HitRec h = { tmax, 0.0f, 0.0f, TX_MISS };
     WoopRay w = woop_setup(org, dir);
@@ -171,6 +178,11 @@ inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tma
         if (sp == 0) return 0;
         node = stack[--sp];
     }
+}
+
+inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
+{
+    return bvh_any_v(TX_GEOM_ARGS, (float4)(org, 0.0f), (float4)(dir, 0.0f), tmin, tmax);
 }
 
 #endif

@@ -12,6 +12,21 @@
  * for everything after them. */
 #pragma OPENCL FP_CONTRACT ON
 
+/* Intel's OpenCL CPU compiler (2026.2, __INTEL_LLVM_COMPILER) miscompiles float3
+ * arguments: when it vectorizes a kernel across work-items, it gives each function it
+ * has not inlined a vector variant, and every lane but the first reads that variant's
+ * float3 arguments from the wrong place (packed 3 floats apart by the caller, read 4
+ * apart), so rays, hits and shading mix between work-items; float4 arguments are
+ * right. On that compiler every inline helper is therefore always inlined, and the
+ * three marked TX_OUT_OF_LINE (bvh_closest_v, bvh_any_v in accel/bvh.h, surface_eval_v
+ * in stages/surface.cl: large, with several callers), which take float4, are not
+ * declared inline: left out of line, they keep the kernels that call them vectorizable.
+ * (PoCL inlines every function into its kernels whatever the keyword.) */
+#if defined(__INTEL_LLVM_COMPILER)
+#define inline inline __attribute__((always_inline))
+#endif
+#define TX_OUT_OF_LINE
+
 /* Unit roundoff of float32 (2^-24). gamma_n(n) = n u / (1 - n u) bounds the
  * relative error of n chained float operations (Higham; pbrt-v4 3.9). */
 #define TX_FLT_U 5.9604645e-08f

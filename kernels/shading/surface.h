@@ -218,10 +218,13 @@ static inline void surface_write(const SurfaceGeom* sg, float3 ng, float3 ns, co
 }
 
 /* Evaluates the hit h of the ray (org, dir) into *s (s->valid = 0 for a miss); with
- * TX_AOVS and aov != NULL also writes record gid of the AOV buffer. */
-inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
-                         __global float* aov, uint gid, Surface* s)
+ * TX_AOVS and aov != NULL also writes record gid of the AOV buffer. Out of line on
+ * Intel's CPU compiler, taking float4 (core/common.h, TX_OUT_OF_LINE); surface_eval
+ * below is the float3 entry every caller uses. */
+TX_OUT_OF_LINE void surface_eval_v(float4 org4, float4 dir4, HitRec hit, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
+                                   __global float* aov, uint gid, Surface* s)
 {
+    float3 org = org4.xyz, dir = dir4.xyz;     /* float4, not float3: core/common.h */
     const HitRec* h = &hit;
     if (h->prim == TX_MISS) {
         s->valid = 0u;
@@ -237,6 +240,12 @@ inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_
     surface_normals(dir, &sg, tc, m, textures, texels, objects, &ng, &ns);
     MaterialTerms mt = surface_material(m, textures, texels, tc);
     surface_write(&sg, ng, ns, &mt, h->t * sqrt(dot3(dir, dir)), aov, gid, s);
+}
+
+inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
+                         __global float* aov, uint gid, Surface* s)
+{
+    surface_eval_v((float4)(org, 0.0f), (float4)(dir, 0.0f), hit, TX_GEOM_ARGS, TX_SURFACE_ARGS, aov, gid, s);
 }
 
 #endif

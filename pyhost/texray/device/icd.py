@@ -1,0 +1,175 @@
+"""Registers Intel's OpenCL CPU runtime with the OpenCL ICD loader, so that after
+``pip install 'texray[intel]'`` texray finds it without any environment set.
+
+The wheel ``intel-opencl-rt`` installs ``libintelocl.so`` (into the environment's
+``lib/``, beside ``libimf.so``, ``libsvml.so`` and TBB, which it finds through its
+``$ORIGIN`` run path: no ``LD_LIBRARY_PATH`` is needed), but no usable ICD file: the
+``etc/OpenCL/vendors/intel-cpu.icd`` it ships names a conda build path
+(``/opt/anaconda1anaconda2anaconda3/lib``) that only conda's post-link script rewrites.
+The ICD loader (ocl-icd, which pyopencl's wheel bundles; the Khronos loader reads the
+same variable) reads the ``.icd`` files of one directory: ``OCL_ICD_VENDORS`` if set,
+else ``OPENCL_VENDOR_PATH`` (ocl-icd), else ``/etc/OpenCL/vendors``. pyopencl's
+wheel patches it to read its own ``pyopencl/.libs/*.icd`` (PoCL from
+``pyopencl[pocl]``) as well, whatever that directory is.
+
+At import (before the loader's first call, which is when it reads the variables),
+:func:`register` finds the wheel's ``libintelocl.so`` and, unless something below
+stops it, writes a directory of ``.icd`` files into texray's cache
+(``$XDG_CACHE_HOME/texray/icd/<hash>``, else ``~/.cache/texray/icd/<hash>``, else the
+temporary directory) listing
+
+* every ICD of the directory the loader reads now (``OCL_ICD_VENDORS``'s directory
+  when the user set one, else ``OPENCL_VENDOR_PATH``'s or ``/etc/OpenCL/vendors``);
+* every ICD of the environment's own ``sys.prefix/etc/OpenCL/vendors`` (the default
+  directory of conda's loader), so that no device visible before is hidden;
+* ``intel-cpu.icd`` naming the found library,
+
+and points ``OCL_ICD_VENDORS`` at it. pyopencl's own ``.libs`` ICDs are not copied
+(its loader reads them anyway: a copy would list PoCL twice). An ICD naming an absolute
+path that does not exist (those conda placeholders) is left out: it never loaded.
+
+Nothing is changed (the environment is left as it is) when
+
+* ``TEXRAY_NO_ICD`` is set to anything but ``""`` or ``"0"``;
+* the wheel is not installed (no ``libintelocl.so`` found);
+* the user's ``OCL_ICD_VENDORS`` names a file, not a directory (the loader then loads
+  that one ICD only: an explicit choice of one driver);
+* a ``libintelocl.so`` is registered already in the directory the loader reads
+  (a system-wide install, or this function's own directory inherited by a child
+  process);
+* the cache directory cannot be written.
+
+``PYOPENCL_CTX`` and ``device=`` still choose among the devices. Registration does not
+help a process that queried OpenCL platforms before importing texray (the loader
+reads its variables once).
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib.metadata
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+DISTRIBUTION = "intel-opencl-rt"
+LIBRARY = "libintelocl.so"
+SYSTEM_VENDORS = Path("/etc/OpenCL/vendors")
+
+
+def find_runtime() -> Path | None:
+    """The ``libintelocl.so`` the ``intel-opencl-rt`` wheel installed, or None."""
+    try:
+        dist = importlib.metadata.distribution(DISTRIBUTION)
+    except importlib.metadata.PackageNotFoundError:
+        return None
+    for f in dist.files or ():
+        if f.name == LIBRARY:
+            p = Path(os.path.normpath(dist.locate_file(f)))
+            if p.is_file():
+                return p
+    return None
+
+
+def _icd_files(directory: Path) -> list[Path]:
+    try:
+        return sorted(p for p in directory.iterdir() if p.suffix == ".icd" and p.is_file())
+    except OSError:
+        return []
+
+
+def _library(icd: Path) -> str | None:
+    """The library an ICD file names (its first non-empty line), or None if unreadable."""
+    try:
+        lines = [ln.strip() for ln in icd.read_text(errors="replace").splitlines()]
+    except OSError:
+        return None
+    return next((ln for ln in lines if ln), None)
+
+
+def _loader_dir(environ) -> Path | None:
+    """The directory the ICD loader reads now; None when OCL_ICD_VENDORS names a file."""
+    user = environ.get("OCL_ICD_VENDORS")
+    if user:
+        return Path(user) if Path(user).is_dir() else None
+    return Path(environ.get("OPENCL_VENDOR_PATH") or SYSTEM_VENDORS)
+
+
+def cache_root(environ) -> Path:
+    """Where the vendor directories go: ``$XDG_CACHE_HOME/texray/icd`` or ``~/.cache/texray/icd``."""
+    base = environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "texray" / "icd"
+
+
+def _write_vendor_dir(root: Path, entries: list[tuple[str, str]]) -> Path:
+    """A directory under root holding one ``name.icd`` per (name, library) entry, named by
+    the hash of its contents (shared by every process that needs the same list; written
+    to a temporary directory and renamed into place, so a reader never sees it half
+    written). Raises OSError when root cannot be written."""
+    text = "".join(f"{name}\n{lib}\n" for name, lib in entries)
+    final = root / hashlib.sha256(text.encode()).hexdigest()[:16]
+    if all(_library(final / name) == lib for name, lib in entries):
+        return final
+    root.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=".tmp-", dir=root))
+    for name, lib in entries:
+        (tmp / name).write_text(lib + "\n")
+    try:
+        os.replace(tmp, final)
+    except OSError:                       # another process put the same directory in place
+        for p in tmp.iterdir():
+            p.unlink()
+        tmp.rmdir()
+        if not all(_library(final / name) == lib for name, lib in entries):
+            raise
+    return final
+
+
+def register(environ=None, library=None, cache_dir=None, prefix_vendors=None) -> Path | None:
+    """Make ``library`` (default :func:`find_runtime`) visible to the ICD loader besides
+    every ICD visible now, by pointing ``environ["OCL_ICD_VENDORS"]`` (default
+    ``os.environ``) at a vendor directory under ``cache_dir`` (default
+    :func:`cache_root`, then the temporary directory). ``prefix_vendors`` is the
+    environment's own vendor directory (default ``sys.prefix/etc/OpenCL/vendors``).
+    Returns that directory, or None where it changes nothing (module docstring)."""
+    environ = os.environ if environ is None else environ
+    if environ.get("TEXRAY_NO_ICD", "") not in ("", "0"):
+        return None
+    library = find_runtime() if library is None else Path(library)
+    if library is None:
+        return None
+    loader_dir = _loader_dir(environ)
+    if loader_dir is None:
+        return None
+    if prefix_vendors is None:
+        prefix_vendors = Path(sys.prefix) / "etc" / "OpenCL" / "vendors"
+    entries, seen = [], set()
+    for k, directory in enumerate(dict.fromkeys([loader_dir, Path(prefix_vendors)])):
+        for icd in _icd_files(directory):
+            lib = _library(icd)
+            if lib is None or lib in seen or (os.path.isabs(lib) and not os.path.exists(lib)):
+                continue
+            if os.path.basename(lib) == LIBRARY and k == 0:
+                return None               # the loader finds an Intel runtime already
+            if os.path.basename(lib) == LIBRARY:
+                continue                  # ours replaces the environment's own
+            seen.add(lib)
+            entries.append((f"{len(entries):02d}-{icd.name}", lib))
+    entries.append((f"{len(entries):02d}-intel-cpu.icd", str(library)))
+    if cache_dir is not None:
+        roots = [Path(cache_dir)]
+    else:
+        uid = os.getuid() if hasattr(os, "getuid") else 0
+        roots = [cache_root(environ), Path(tempfile.gettempdir()) / f"texray-icd-{uid}"]
+    for root in roots:
+        try:
+            vendors = _write_vendor_dir(root, entries)
+        except OSError:
+            continue
+        environ["OCL_ICD_VENDORS"] = str(vendors)
+        return vendors
+    return None
+
+
+registered = register()
+"""The vendor directory this process registered at import, or None (module docstring)."""
