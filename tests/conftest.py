@@ -1,9 +1,10 @@
 """Shared fixtures: the OpenCL devices to test on, seeded generators, asset paths.
 
-Every device test runs on PoCL's CPU device (always present with
+Every device test runs on the default CPU device (PoCL, always present with
 pyopencl[pocl]) and on each GPU found; set TEXRAY_TEST_DEVICES=all|cpu|gpu
 to choose. The portability tests (struct layout, strict 1.2 builds, images
-agreeing across devices) also run on every other OpenCL device found, such as
+agreeing across devices) also run on every other OpenCL device found: other CPU
+drivers (Intel's runtime, which `.ci/run` installs) and
 Oclgrind, the OpenCL 1.2 simulator that `.ci/run` installs where it can: a
 second, independent compiler and runtime, whose memory checker reports any
 out-of-bounds access of the kernels.
@@ -35,20 +36,29 @@ except ImportError:                      # running from a source tree
     import texray  # noqa: F401
 
 
-def _test_devices(types):
-    from texray.device import devices
+def _test_devices(types, every_cpu):
+    """Devices of the given types; of the CPU drivers only the default one (PoCL: the
+    renderer's default CPU device) unless ``every_cpu``."""
+    from texray.device import devices, select_device
     want = os.environ.get("TEXRAY_TEST_DEVICES", "all")
+    default_cpu = None
+    if not every_cpu and any(d.type == "cpu" for d in devices()):
+        c = select_device("cpu")
+        default_cpu = (c.name.strip(), c.platform.name.strip())
     out = []
     for d in devices():
+        if d.type == "cpu" and default_cpu is not None and (d.name, d.platform) != default_cpu:
+            continue
         if want in ("all", d.type) and d.type in types:
             if not any(o.type == d.type and o.name == d.name for o in out):
                 out.append(d)
     return out
 
 
-DEVICES = _test_devices(("cpu", "gpu"))
-# Devices of the portability tests: the above and any other OpenCL device.
-PORTABILITY_DEVICES = _test_devices(("cpu", "gpu", "accelerator", "other"))
+DEVICES = _test_devices(("cpu", "gpu"), every_cpu=False)
+# Devices of the portability tests: the above and any other OpenCL device (other CPU
+# drivers, such as Intel's runtime from texray[intel], included).
+PORTABILITY_DEVICES = _test_devices(("cpu", "gpu", "accelerator", "other"), every_cpu=True)
 
 
 @pytest.fixture(params=[d.index for d in DEVICES], ids=[f"{d.type}:{d.name[:24]}" for d in DEVICES])

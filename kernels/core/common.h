@@ -7,6 +7,7 @@
  * texray.features.compile_options() emits. */
 #ifndef TEXRAY_COMMON_H
 #define TEXRAY_COMMON_H
+#include "core/builtins.h"
 /* OpenCL's default, stated: this file and core/sampler.h have always been compiled
  * with FP contraction allowed (dot3 may become FMAs); core/accurate.h turns it off
  * for everything after them. */

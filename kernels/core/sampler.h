@@ -30,7 +30,9 @@ inline uint cmj_permute(uint i, uint l, uint p)
         i &= w;             i ^= i >> 5;
         if (i < l) break;
     }
-    return (i + p) % l;
+    /* (i + p) % l; a power of two l (w = l - 1) as a mask: the same value without a
+     * division (CMJ's counts are powers of two at the usual spp). */
+    return w + 1u == l ? (i + p) & w : (i + p) % l;
 }
 
 inline float cmj_randfloat(uint i, uint p)

@@ -32,6 +32,7 @@
  * points outward (away from the axis) like ng. */
 #ifndef TEXRAY_CYLINDER_H
 #define TEXRAY_CYLINDER_H
+#include "core/transcendental.h"
 #include "geometry/hit.h"
 #include "core/quadratic.h"
 
@@ -93,7 +94,7 @@ inline CylRay cylinder_ray(__global const Cylinder* cy, float3 org, float3 dir)
  * integer), which is moved up by 2pi: a full cylinder has no crack at theta_min. */
 inline float cylinder_theta_rel(float x, float y, float theta_min)
 {
-    float d = atan2(y, x) - theta_min;
+    float d = tx_atan2(y, x) - theta_min;
     d -= (2.0f * M_PI_F) * floor(d * (0.5f * M_1_PI_F));
     return d < 0.0f ? d + 2.0f * M_PI_F : d;
 }

@@ -34,6 +34,7 @@
  * leaving the surface it starts on (self-shadowing) must not see its own origin. */
 #ifndef TEXRAY_DISPLACE_H
 #define TEXRAY_DISPLACE_H
+#include "core/transcendental.h"
 
 #include "geometry/hit.h"
 #include "geometry/sphere.h"      /* the base shapes' parameterizations: sphere_uv, sphere_tangents, */
@@ -97,8 +98,8 @@ inline float3 disp_local(const DispFrame* f, float3 q)
 {
     if (f->shape == DISP_QUAD) return (float3)(dot3(q, f->r0), dot3(q, f->r1), dot3(q, f->n));
     float x = dot3(q, f->e0), y = dot3(q, f->e1), z = dot3(q, f->n);
-    float rho = hypot(x, y);
-    if (f->shape == DISP_SPHERE) return (float3)(sphere_uv(x, y, z, rho), hypot(rho, z) - f->radius);
+    float rho = tx_hypot(x, y);
+    if (f->shape == DISP_SPHERE) return (float3)(sphere_uv(x, y, z, rho), tx_hypot(rho, z) - f->radius);
     float rel = cylinder_theta_rel(x, y, f->th0);                   /* [0, 2pi] */
     return (float3)(rel / f->span, (z - f->z0) / (f->z1 - f->z0), rho - f->radius);
 }
@@ -397,10 +398,10 @@ inline void displaced_geom(__global const Displaced* d, __global const ushort* h
         g->ng = tx_unit_or(q, f.n);
         float3 pc = R * g->ng;
         float x = dot3(pc, f.e0), y = dot3(pc, f.e1), z = dot3(pc, f.n);
-        sphere_tangents(x, y, z, hypot(x, y), R, f.e0, f.e1, f.n, &g->dpdu, &g->dpdv);
+        sphere_tangents(x, y, z, tx_hypot(x, y), R, f.e0, f.e1, f.n, &g->dpdu, &g->dpdv);
     } else {
         float x = dot3(q, f.e0), y = dot3(q, f.e1);
-        float rho = hypot(x, y);
+        float rho = tx_hypot(x, y);
         g->ng = rho > 0.0f ? (x * f.e0 + y * f.e1) / rho : f.e0;
         cylinder_tangents(R * dot3(g->ng, f.e0), R * dot3(g->ng, f.e1), f.span, f.z1 - f.z0, f.e0, f.e1, f.n,
                           &g->dpdu, &g->dpdv);

@@ -17,6 +17,7 @@
  * pbrt-v4 Sphere) in the frame x = axis_x, z = axis_z, y = z x x. */
 #ifndef TEXRAY_SPHERE_H
 #define TEXRAY_SPHERE_H
+#include "core/transcendental.h"
 #include "geometry/hit.h"
 #include "geometry/spherical.h"
 #include "core/quadratic.h"
@@ -158,7 +159,7 @@ inline void sphere_geom(__global const Sphere* s, float3 org, float3 dir, float 
     float3 ax = sphere_axis_x(s), az = sphere_axis_z(s);
     float3 ay = cross3(az, ax);
     float x = dot3(pc, ax), y = dot3(pc, ay), z = dot3(pc, az);
-    float rho = hypot(x, y);
+    float rho = tx_hypot(x, y);
     g->uv = sphere_uv(x, y, z, rho);
     sphere_tangents(x, y, z, rho, r, ax, ay, az, &g->dpdu, &g->dpdv);
 }

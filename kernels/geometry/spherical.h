@@ -13,6 +13,7 @@
 #ifndef TEXRAY_SPHERICAL_H
 #define TEXRAY_SPHERICAL_H
 #include "core/accurate.h"
+#include "core/transcendental.h"
 
 #define TX_ONE_MINUS_ULP 0.99999994f      /* largest float below 1 */
 
@@ -26,7 +27,7 @@ inline float azimuth_u(float x, float y)
 {
     float phi = 0.0f;
     if (x != 0.0f || y != 0.0f) {
-        phi = atan2(y, x);
+        phi = tx_atan2(y, x);
         if (phi < 0.0f) phi += 2.0f * M_PI_F;
     }
     return TX_MIN(TX_MAX(phi * (0.5f * M_1_PI_F), 0.0f), TX_ONE_MINUS_ULP);
@@ -37,7 +38,7 @@ inline float azimuth_u(float x, float y)
  * round up at the south pole). */
 inline float2 sphere_uv(float x, float y, float z, float rho)
 {
-    return (float2)(azimuth_u(x, y), TX_MAX(1.0f - atan2(rho, z) * M_1_PI_F, 0.0f));
+    return (float2)(azimuth_u(x, y), TX_MAX(1.0f - tx_atan2(rho, z) * M_1_PI_F, 0.0f));
 }
 
 #endif

@@ -46,7 +46,10 @@ inline float3 light_term(const Surface* s, float3 v, float3 lpos, float3 intensi
         float3 r = 2.0f * ndl * nrm - l;
         float rv = dot3(r, v);
         if (rv > 0.0f) {
-            float sp = powr(rv, s->shininess);
+            /* powr(rv, n) as exp2(n log2 rv): PoCL's powr works in extended precision
+             * (6% of the globe's frame); this is within n |log2 rv| ulp of it, under 1e-6
+             * relative wherever the term is above 1e-6. */
+            float sp = exp2(s->shininess * log2(rv));
             if (sp >= 0.0f && sp <= FLT_MAX) term += vload3(0, s->ks) * sp;
         }
     }

@@ -18,6 +18,7 @@
  * addresses every level. */
 #ifndef TEXRAY_TEXTURE_H
 #define TEXRAY_TEXTURE_H
+#include "core/transcendental.h"
 #include "texture/wrap.h"
 #include "texture/mapping.h"
 
@@ -170,7 +171,7 @@ inline AnisoFootprint texture_aniso_footprint(__global const TextureInfo* ti, fl
     /* J J^T = [[A, B], [B, C]]: eigenvalues (A + C) / 2 +- r */
     float A = a.x * a.x + b.x * b.x, B = a.x * a.y + b.x * b.y, C = a.y * a.y + b.y * b.y;
     float h = 0.5f * (A - C);
-    float r = hypot(h, B);
+    float r = tx_hypot(h, B);
     AnisoFootprint f;
     f.major = sqrt(0.5f * (A + C) + r);
     /* minor = |det J| / major: no cancellation (core/accurate.h tx_diff_prod), unlike sqrt of the
@@ -184,7 +185,7 @@ inline AnisoFootprint texture_aniso_footprint(__global const TextureInfo* ti, fl
     f.n = TX_MAX(f.n, 1);
     /* The major eigenvector, from whichever row of J J^T - lambda I is well conditioned. */
     float2 v = h >= 0.0f ? (float2)(h + r, B) : (float2)(B, r - h);
-    float len = hypot(v.x, v.y);
+    float len = tx_hypot(v.x, v.y);
     float2 axis = len > 0.0f ? v / len : (float2)(1.0f, 0.0f);
     f.spacing = f.n > 1 ? TX_MAX(f.major - f.width, 0.0f) / (float)(f.n - 1) : 0.0f;
     f.axis_uv = axis / s;

@@ -3,12 +3,15 @@
 Selection (``device=`` of :func:`texray.render`):
 
 * ``None``: ``PYOPENCL_CTX`` if set (pyopencl's own syntax, e.g. ``"0:1"``),
-  else the first GPU of any platform, else the first CPU (PoCL ships with
-  ``pyopencl[pocl]``, so there always is one).
-* ``"cpu"`` / ``"gpu"``: the first device of that type.
+  else the first device in :data:`DEFAULT_ORDER`: a GPU of any platform, else PoCL's
+  CPU device (it ships with ``pyopencl[pocl]``, so there always is one), else any
+  other CPU device (Intel's runtime: why it comes after PoCL is stated there).
+* ``"cpu"`` / ``"gpu"``: the first device of that type in the same order.
 * an ``int``: an index into :func:`devices`.
-* any other string: the first device whose name or platform name contains it
-  (case-insensitive).
+* ``"pocl"``: PoCL's first device.
+* any other string: the first device whose platform name contains it
+  (case-insensitive: ``"intel"`` is Intel's runtime, ``"nvidia"`` NVIDIA's platform),
+  else the first whose device name does.
 """
 from __future__ import annotations
 
@@ -105,6 +108,29 @@ def devices() -> list[DeviceInfo]:
             for i, d in enumerate(_all_devices())]
 
 
+# The default device (device=None; "cpu" or "gpu" among several of that type): the first
+# of these classes, each in the ICD loader's order. Measured with `texray bench --peers`
+# (README, Performance): a GPU first; among CPU drivers PoCL before Intel's runtime,
+# which renders frames 1.2-1.5x faster on the bench scenes but compiles each program
+# 3x slower (4-7 s cold against 1.3-1.9 s; the generic program 64 s against 2.6 s), so
+# that a first render, and every new feature set, waits longer than the frame saves.
+# `device="Intel(R) OpenCL"` (its platform) chooses it for long or repeated renders:
+# its programs are cached, a warm start takes 0.05 s.
+DEFAULT_ORDER = ("gpu", "pocl", "cpu", "accelerator", "other")
+
+
+def _default_rank(d) -> int:
+    typ = _type_name(d.type)
+    if typ == "cpu" and _device_kind(d) == "pocl":
+        return DEFAULT_ORDER.index("pocl")
+    return DEFAULT_ORDER.index(typ)
+
+
+def default_order(devs):
+    """``devs`` in the default selection's order (:data:`DEFAULT_ORDER`; stable)."""
+    return sorted(devs, key=_default_rank)
+
+
 def select_device(device=None) -> cl.Device:
     """The pyopencl device that ``device`` names (see module docstring)."""
     devs = _all_devices()
@@ -121,11 +147,7 @@ def select_device(device=None) -> cl.Device:
                 raise DeviceError(f"PYOPENCL_CTX={ctx!r} names no device ({type(e).__name__}: {e}); pyopencl's "
                                   "syntax is PLATFORM[:DEVICE] (indices or name substrings); available: "
                                   + "; ".join(map(str, devices()))) from None
-        for want in ("gpu", "cpu"):
-            for d in devs:
-                if _type_name(d.type) == want:
-                    return d
-        return devs[0]
+        return default_order(devs)[0]
     if isinstance(device, (bool, np.bool_)) or not isinstance(device, (int, np.integer, str)):
         raise DeviceError(f"device: expected None, an int or a str, got {type(device).__name__} {device!r}")
     if isinstance(device, str) and not device.strip():
@@ -139,12 +161,17 @@ def select_device(device=None) -> cl.Device:
         return devs[device]
     key = device.strip().lower()
     if key in ("cpu", "gpu"):
-        for d in devs:
+        for d in default_order(devs):
             if _type_name(d.type) == key:
                 return d
         raise DeviceError(f"device: no {key.upper()} device; available: " + "; ".join(map(str, devices())))
+    # A platform's name first ("intel" is Intel's runtime, not PoCL's device on an Intel
+    # CPU, whose name also says Intel), then a device's; "pocl" names PoCL's devices.
     for d in devs:
-        if key in d.name.lower() or key in d.platform.name.lower():
+        if key in d.platform.name.lower() or (key == "pocl" and _device_kind(d) == "pocl"):
+            return d
+    for d in devs:
+        if key in d.name.lower():
             return d
     raise DeviceError(f"device: no device matches {device!r}; available: " + "; ".join(map(str, devices())))
 
@@ -159,6 +186,8 @@ class Runtime:
         self._programs = {}
         self._lock = threading.Lock()
         self.build_log = []          # (options, seconds) per program built in this process
+        # Defines naming the driver, for its workarounds (core/builtins.h: TX_POCL).
+        self.device_defines = ("-DTX_POCL=1",) if _device_kind(dev) == "pocl" else ()
 
     def local_size(self, override=None):
         """Work-group size for the one-ray-per-work-item kernels, or None to let the driver
@@ -210,7 +239,7 @@ class Runtime:
         build path of the renderer's program and the tests' kernels. Cached per (source,
         every kernel source file, options); BuildError with the compiler log on failure."""
         source = opencl_prelude() + source
-        options = list(options) + ["-I", str(KERNEL_DIR), "-cl-std=CL1.2"]
+        options = list(options) + ["-I", str(KERNEL_DIR), "-cl-std=CL1.2"] + list(self.device_defines)
         key = (hashlib.sha256((source + _kernel_sources_digest()).encode()).hexdigest(), tuple(options))
         with self._lock:
             prg = self._programs.get(key)

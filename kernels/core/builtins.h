@@ -1,0 +1,70 @@
+#line 2 "core/builtins.h"
+/* Inline versions of builtins that PoCL calls out of line (TX_POCL: the host defines it
+ * for PoCL devices only, texray.device.opencl). PoCL links its builtin library as code
+ * built for a generic CPU, and LLVM does not inline a function whose target features
+ * differ from its caller's, so every fabs, floor, fma, nextafter, copysign, sqrt, rsqrt and
+ * vload3 in a kernel was a call (perf on the globe scene: 10% of the frame in them).
+ * Each replacement returns the very same float as PoCL's builtin for every input
+ * (IEEE-754 defines all but rsqrt exactly, and PoCL's rsqrt is 1 / sqrt), so images
+ * keep their bits (tests/kernels/test_builtins.py compares them on a million inputs). PoCL's
+ * headers make each builtin a macro for its _cl_ name; these take the names over; other drivers inline their own builtins and keep them. */
+#ifndef TEXRAY_BUILTINS_H
+#define TEXRAY_BUILTINS_H
+#if TX_POCL
+
+/* |x|: the sign bit cleared (NaN stays NaN). */
+__attribute__((overloadable)) inline float tx_fabs(float x) { return as_float(as_uint(x) & 0x7fffffffu); }
+__attribute__((overloadable)) inline float2 tx_fabs(float2 x) { return as_float2(as_uint2(x) & 0x7fffffffu); }
+__attribute__((overloadable)) inline float3 tx_fabs(float3 x) { return as_float3(as_uint3(x) & 0x7fffffffu); }
+__attribute__((overloadable)) inline float4 tx_fabs(float4 x) { return as_float4(as_uint4(x) & 0x7fffffffu); }
+#undef fabs
+#define fabs tx_fabs
+
+/* floor and fma as LLVM's intrinsics, which become one instruction (roundss; vfmadd
+ * where the target has FMA: __FMA__, else PoCL's own, correctly rounded, call). */
+inline float tx_floor(float x) { return __builtin_floorf(x); }
+#undef floor
+#define floor tx_floor
+#if defined(__FMA__)
+inline float tx_fma(float a, float b, float c) { return __builtin_fmaf(a, b, c); }
+#undef fma
+#define fma tx_fma
+#endif
+
+/* The next float after x toward y (C99 nextafter): one step of the bit pattern, away
+ * from zero when y is farther from zero on x's side, else toward it; from +-0 the
+ * smallest denormal of y's sign; NaN in, NaN out; x == y gives y. */
+inline float tx_nextafter(float x, float y)
+{
+    if (x != x || y != y) return x + y;
+    if (x == y) return y;
+    if (x == 0.0f) return as_float(y > 0.0f ? 1u : 0x80000001u);
+    uint u = as_uint(x);
+    return as_float((x < y) == (x > 0.0f) ? u + 1u : u - 1u);
+}
+#undef nextafter
+#define nextafter tx_nextafter
+
+/* copysign: x's magnitude bits with y's sign bit. */
+inline float tx_copysign(float x, float y)
+{
+    return as_float((as_uint(x) & 0x7fffffffu) | (as_uint(y) & 0x80000000u));
+}
+#undef copysign
+#define copysign tx_copysign
+
+/* sqrt (correctly rounded: sqrtss) and rsqrt as PoCL computes it, 1 / sqrt(x). */
+__attribute__((overloadable)) inline float tx_sqrt(float x) { return __builtin_sqrtf(x); }
+#undef sqrt
+#define sqrt tx_sqrt
+__attribute__((overloadable)) inline float tx_rsqrt(float x) { return 1.0f / __builtin_sqrtf(x); }
+#undef rsqrt
+#define rsqrt tx_rsqrt
+
+/* vload3(o, p): three scalar loads (any address space; o and p are evaluated more than
+ * once, so callers pass plain expressions). */
+#undef vload3
+#define vload3(o, p) ((float3)((p)[3 * (o)], (p)[3 * (o) + 1], (p)[3 * (o) + 2]))
+
+#endif
+#endif
