@@ -42,11 +42,13 @@ inline int leaf_hit(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, fl
     float t;
     float2 uv;
     if (kind == PRIM_TRIANGLE) {
-        for (uint i = first; i < end; ++i) {
-            __global const TriVerts* tr = tris + i;
+        /* Four at a time (triangle_intersect4); counted from 0, so that no index wraps. */
+        uint count = end > first ? end - first : 0u;
+        for (uint k = 0; k < count; k += 4u) {
             float b1, b2;
-            if (triangle_intersect(w, tri_p0(tr), tri_p1(tr), tri_p2(tr), tmin, h->t, &t, &b1, &b2)) {
-                h->t = t; h->b1 = b1; h->b2 = b2; h->prim = i;
+            int lane = triangle_intersect4(w, tris + first + k, TX_MIN(count - k, 4u), tmin, h->t, &t, &b1, &b2);
+            if (lane >= 0) {
+                h->t = t; h->b1 = b1; h->b2 = b2; h->prim = first + k + (uint)lane;
                 if (any) return 1;
             }
         }

@@ -171,5 +171,7 @@ def register(environ=None, library=None, cache_dir=None, prefix_vendors=None) ->
     return None
 
 
+original_vendors = os.environ.get("OCL_ICD_VENDORS")
+"""``OCL_ICD_VENDORS`` as this process found it, before :func:`register` (None: unset)."""
 registered = register()
 """The vendor directory this process registered at import, or None (module docstring)."""

@@ -1,0 +1,83 @@
+"""A/B frame times of two checkouts of texray, interleaved, in fresh processes.
+
+    python tools/ab.py BASE NEW [SCENE.toml ...] [--size 512x384] [--spp 8] [--rounds 3]
+                       [--frames 5] [--device pocl]
+
+BASE and NEW are source trees (a `git worktree add /tmp/base <commit>` of the commit
+before, and this one). Each round renders each scene once with BASE's host code and
+kernels, then with NEW's, each in its own process (one warm-up frame, then the median of
+``--frames`` frames' ``stats["render_s"]``), so that both see the same machine load;
+it prints every round's times and the median of the rounds' ratios NEW / BASE (< 1:
+NEW is faster). The default scenes are the bench's globe, textured meshes, bumped
+brick wall and grazing quad.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_SCENES = [ROOT / "scenes" / "bench" / f"{n}.toml"
+                  for n in ("globe", "textured_meshes", "brick_wall", "grazing_quad")]
+
+# Runs in the child: that tree's texray (PYTHONPATH) with that tree's kernels (an
+# editable install elsewhere would otherwise supply its own kernels/).
+_CHILD = r"""
+import json, statistics, sys
+from pathlib import Path
+tree, scene, w, h, spp, frames, device = sys.argv[1:8]
+import texray.device.opencl as o
+o.KERNEL_DIR = Path(tree) / "kernels"
+o._kernel_sources_digest.cache_clear()
+import texray as tx
+s = tx.Scene.load(scene)
+tx.render(s, int(w), int(h), int(spp), device=device)
+ts = [tx.render(s, int(w), int(h), int(spp), device=device).stats["render_s"] for _ in range(int(frames))]
+print(json.dumps(statistics.median(ts)))
+"""
+
+
+def frame_time(tree: Path, scene: Path, size, spp, frames, device) -> float:
+    env = dict(os.environ, PYTHONPATH=str(tree / "pyhost"))
+    out = subprocess.run([sys.executable, "-c", _CHILD, str(tree), str(scene), str(size[0]), str(size[1]),
+                          str(spp), str(frames), device], env=env, capture_output=True, text=True, cwd="/")
+    if out.returncode != 0:
+        raise SystemExit(f"ab: {tree} on {scene} failed:\n{out.stderr[-2000:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python tools/ab.py", description=__doc__.splitlines()[0])
+    ap.add_argument("base", type=Path)
+    ap.add_argument("new", type=Path)
+    ap.add_argument("scenes", nargs="*", type=Path)
+    ap.add_argument("--size", default="512x384")
+    ap.add_argument("--spp", type=int, default=8)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--frames", type=int, default=5)
+    ap.add_argument("--device", default="Portable Computing Language",
+                    help="device name (default PoCL's platform, which every version matches)")
+    a = ap.parse_args(argv)
+    size = tuple(int(v) for v in a.size.lower().split("x"))
+    for tree in (a.base, a.new):
+        if not (tree / "kernels" / "texray.cl").is_file() or not (tree / "pyhost" / "texray").is_dir():
+            ap.error(f"{tree}: not a texray source tree (kernels/texray.cl, pyhost/texray)")
+    for scene in [s.resolve() for s in a.scenes] or DEFAULT_SCENES:
+        ratios = []
+        for r in range(a.rounds):
+            tb = frame_time(a.base, scene, size, a.spp, a.frames, a.device)
+            tn = frame_time(a.new, scene, size, a.spp, a.frames, a.device)
+            ratios.append(tn / tb)
+            print(f"{scene.stem:18s} round {r + 1}: base {tb * 1e3:8.1f} ms  new {tn * 1e3:8.1f} ms  "
+                  f"new/base {tn / tb:.3f}", flush=True)
+        print(f"{scene.stem:18s} median new/base {statistics.median(ratios):.3f}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
