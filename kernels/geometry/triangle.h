@@ -90,6 +90,9 @@ inline int triangle_intersect(const WoopRay* w, float3 p0, float3 p1, float3 p2,
     return 1;
 }
 
+/* any(v) written out: some lane's sign bit set (PoCL calls its builtin out of line). */
+inline int any4(int4 v) { return (v.x | v.y | v.z | v.w) < 0; }
+
 /* Componentwise TX_MAX (a > b ? a : b: b where either is NaN). */
 inline float4 tx_max4(float4 a, float4 b) { return select(b, a, a > b); }
 
@@ -126,7 +129,7 @@ inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, ui
     float4 W = bx * ay - by * ax;
 #ifdef cl_khr_fp64
     int4 z = (U == 0.0f) | (V == 0.0f) | (W == 0.0f);
-    if (any(z)) {                                   /* rare: an edge function rounded to 0 */
+    if (any4(z)) {                                   /* rare: an edge function rounded to 0 */
         float u_[4], v_[4], w_[4], ax_[4], ay_[4], bx_[4], by_[4], cx_[4], cy_[4];
         vstore4(U, 0, u_); vstore4(V, 0, v_); vstore4(W, 0, w_);
         vstore4(ax, 0, ax_); vstore4(ay, 0, ay_); vstore4(bx, 0, bx_); vstore4(by, 0, by_);
@@ -144,7 +147,7 @@ inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, ui
     /* NaN edge functions fail both sign tests: a miss. */
     int4 ok = ((U >= 0.0f) & (V >= 0.0f) & (W >= 0.0f)) | ((U <= 0.0f) & (V <= 0.0f) & (W <= 0.0f));
     ok &= (int4)(0, 1, 2, 3) < (int4)((int)n);
-    if (!any(ok)) return -1;
+    if (!any4(ok)) return -1;
     float4 det = U + V + W;
     float4 az = rz.x * Ax + rz.y * Ay + rz.z * Az, bz = rz.x * Bx + rz.y * By + rz.z * Bz;
     float4 cz = rz.x * Cx + rz.y * Cy + rz.z * Cz;
@@ -152,7 +155,7 @@ inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, ui
     float4 inv = 1.0f / det;
     float4 tt = T * inv;
     ok &= (det != 0.0f) & (tt > tmin) & (tt < tmax);     /* NaN t fails */
-    if (!any(ok)) return -1;
+    if (!any4(ok)) return -1;
     /* pbrt-v4's conservative t bound, as in triangle_intersect. */
     float4 max_z = tx_max4(tx_max4(fabs(az), fabs(bz)), fabs(cz));
     float4 max_x = tx_max4(tx_max4(fabs(ax), fabs(bx)), fabs(cx));
