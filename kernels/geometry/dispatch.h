@@ -41,7 +41,7 @@ inline int leaf_hit(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, fl
     uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
     float t;
     float2 uv;
-    if (kind == PRIM_TRIANGLE) {
+    if (TX_TRIANGLES && kind == PRIM_TRIANGLE) {
         /* Four at a time (triangle_intersect4); counted from 0, so that no index wraps. */
         uint count = end > first ? end - first : 0u;
         for (uint k = 0; k < count; k += 4u) {

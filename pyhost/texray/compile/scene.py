@@ -187,6 +187,7 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
         lights[i]["position"], lights[i]["intensity"] = light.validate(f"lights[{i}].")
     features = Features(textures=bool(mats.textures), vertex_normals=any_normals, specular=any_specular,
                         shadows=shadows and bool(scene.lights),
+                        triangles=len(arrays["tri_verts"]) > 0,
                         spheres=len(arrays["spheres"]) > 0, cylinders=len(arrays["cylinders"]) > 0,
                         quads=len(arrays["quad_verts"]) > 0,
                         projections=any(o.mapping is not None for o in scene.objects),

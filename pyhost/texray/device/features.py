@@ -12,7 +12,8 @@ class Features:
     vertex_normals: bool = False   # any mesh carries per-vertex shading normals
     specular: bool = False         # any material has ks > 0
     shadows: bool = True           # trace shadow rays (False: every light is visible)
-    spheres: bool = False          # primitive kinds present in the BVH (triangles are always compiled)
+    triangles: bool = True         # primitive kinds present in the BVH (without triangles the traversal
+    spheres: bool = False          # skips the watertight test's per-ray shear setup)
     cylinders: bool = False
     quads: bool = False
     projections: bool = False      # some object generates its uv by a projection mapping
@@ -86,6 +87,7 @@ def compile_options(f: Features) -> dict[str, int]:
         "TX_VERTEX_NORMALS": int(f.vertex_normals),
         "TX_SPECULAR": int(f.specular),
         "TX_SHADOWS": int(f.shadows),
+        "TX_TRIANGLES": int(f.triangles),
         "TX_SPHERES": int(f.spheres),
         "TX_CYLINDERS": int(f.cylinders),
         "TX_QUADS": int(f.quads),
