@@ -94,11 +94,7 @@ TX_OUT_OF_LINE HitRec bvh_closest_v(TX_GEOM_PARAMS, float4 org4, float4 dir4, fl
     float3 org = org4.xyz, dir = dir4.xyz;     /* float4, not float3: common.h */
     HitRec h = { tmax, 0.0f, 0.0f, TX_MISS };
     if (nnodes == 0u || !ray_valid(org, dir, tmin, tmax)) return h;
-#if TX_TRIANGLES
-    WoopRay w = woop_setup(org, dir);
-#else
-    WoopRay w = { org, dir, dir, dir };      /* never read: no triangle leaves (leaf_hit) */
-#endif
+    WoopRay w = leaf_ray(org, dir);
     float3 inv_d = (float3)(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z));
     int par = fabs(inv_d.x) >= TX_PARALLEL_INV || fabs(inv_d.y) >= TX_PARALLEL_INV || fabs(inv_d.z) >= TX_PARALLEL_INV;
     int nx = inv_d.x < 0.0f, ny = inv_d.y < 0.0f, nz = inv_d.z < 0.0f;
@@ -157,11 +153,7 @@ TX_OUT_OF_LINE int bvh_any_v(TX_GEOM_PARAMS, float4 org4, float4 dir4, float tmi
     float3 org = org4.xyz, dir = dir4.xyz;     /* float4, not float3: common.h */
     if (nnodes == 0u || !ray_valid(org, dir, tmin, tmax)) return 0;
     HitRec h = { tmax, 0.0f, 0.0f, TX_MISS };
-#if TX_TRIANGLES
-    WoopRay w = woop_setup(org, dir);
-#else
-    WoopRay w = { org, dir, dir, dir };      /* never read: no triangle leaves (leaf_hit) */
-#endif
+    WoopRay w = leaf_ray(org, dir);
     float3 inv_d = (float3)(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z));
     int par = fabs(inv_d.x) >= TX_PARALLEL_INV || fabs(inv_d.y) >= TX_PARALLEL_INV || fabs(inv_d.z) >= TX_PARALLEL_INV;
     int nx = inv_d.x < 0.0f, ny = inv_d.y < 0.0f, nz = inv_d.z < 0.0f;

@@ -2,8 +2,8 @@
 /* Inline versions of builtins that PoCL calls out of line (TX_POCL: the host defines it
  * for PoCL devices only, texray.device.opencl). PoCL links its builtin library as code
  * built for a generic CPU, and LLVM does not inline a function whose target features
- * differ from its caller's, so every fabs, floor, fma, nextafter, copysign, sqrt, rsqrt and
- * vload3 in a kernel was a call (perf on the globe scene: 10% of the frame in them).
+ * differ from its caller's, so every fabs, floor, fma, nextafter, copysign, sqrt, rsqrt,
+ * vload3 and any in a kernel was a call (perf on the globe scene: 10% of the frame in them).
  * Each replacement returns the very same float as PoCL's builtin for every input
  * (IEEE-754 defines all but rsqrt exactly, and PoCL's rsqrt is 1 / sqrt), so images
  * keep their bits (tests/kernels/test_builtins.py compares them on a million inputs). PoCL's
@@ -65,6 +65,11 @@ __attribute__((overloadable)) inline float tx_rsqrt(float x) { return 1.0f / __b
  * once, so callers pass plain expressions). */
 #undef vload3
 #define vload3(o, p) ((float3)((p)[3 * (o)], (p)[3 * (o) + 1], (p)[3 * (o) + 2]))
+/* any(int4): some lane's sign bit set. */
+__attribute__((overloadable)) inline int tx_any(int4 v) { return (v.x | v.y | v.z | v.w) < 0; }
+#undef any
+#define any tx_any
+
 /* vload_half4 stays PoCL's call: an inline bitwise widening (exact on all 65536 halves)
  * measured slower than PoCL's code (tools/ab.py, textured scenes: 1.03-1.09x). */
 

@@ -41,69 +41,15 @@ inline WoopRay woop_setup(float3 org, float3 dir)
     return w;
 }
 
-/* Hit with t in (tmin, tmax): returns 1 and writes t and the barycentrics b1,
- * b2 of p1, p2 (P = (1 - b1 - b2) P0 + b1 P1 + b2 P2, the lecture's form).
- * Degenerate (zero-area) triangles and NaN inputs never hit. */
-inline int triangle_intersect(const WoopRay* w, float3 p0, float3 p1, float3 p2,
-                              float tmin, float tmax, float* t, float* b1, float* b2)
-{
-    float3 A = p0 - w->org, B = p1 - w->org, C = p2 - w->org;
-    float ax = dot3(w->rx, A), ay = dot3(w->ry, A);
-    float bx = dot3(w->rx, B), by = dot3(w->ry, B);
-    float cx = dot3(w->rx, C), cy = dot3(w->ry, C);
-    float U = cx * by - cy * bx;
-    float V = ax * cy - ay * cx;
-    float W = bx * ay - by * ax;
-#ifdef cl_khr_fp64
-    if (U == 0.0f || V == 0.0f || W == 0.0f) {
-        U = (float)((double)cx * (double)by - (double)cy * (double)bx);
-        V = (float)((double)ax * (double)cy - (double)ay * (double)cx);
-        W = (float)((double)bx * (double)ay - (double)by * (double)ax);
-    }
-#endif
-    /* Written so that NaN edge functions fall through to a miss. */
-    if (!((U >= 0.0f && V >= 0.0f && W >= 0.0f) || (U <= 0.0f && V <= 0.0f && W <= 0.0f)))
-        return 0;
-    float det = U + V + W;
-    if (!(det != 0.0f)) return 0;
-    float az = dot3(w->rz, A), bz = dot3(w->rz, B), cz = dot3(w->rz, C);
-    float T = U * az + V * bz + W * cz;
-    float inv = 1.0f / det;
-    float tt = T * inv;
-    if (!(tt > tmin && tt < tmax)) return 0;
-    /* Reject t within its own rounding-error bound of zero (pbrt-v4 6.5.3,
-     * "Conservative Ray-Triangle t Tests"): a ray leaving a surface from a
-     * point offset by that surface's error bound cannot re-hit it. */
-    float max_z = TX_MAX(TX_MAX(fabs(az), fabs(bz)), fabs(cz));
-    float max_x = TX_MAX(TX_MAX(fabs(ax), fabs(bx)), fabs(cx));
-    float max_y = TX_MAX(TX_MAX(fabs(ay), fabs(by)), fabs(cy));
-    float delta_z = gamma_n(3.0f) * max_z;
-    float delta_x = gamma_n(5.0f) * (max_x + max_z);
-    float delta_y = gamma_n(5.0f) * (max_y + max_z);
-    float delta_e = 2.0f * (gamma_n(2.0f) * max_x * max_y + delta_y * max_x + delta_x * max_y);
-    float max_e = TX_MAX(TX_MAX(fabs(U), fabs(V)), fabs(W));
-    float delta_t = 3.0f * (gamma_n(3.0f) * max_e * max_z + delta_e * max_z + delta_z * max_e) * fabs(inv);
-    if (!(tt > delta_t)) return 0;
-    *t = tt;
-    *b1 = V * inv;
-    *b2 = W * inv;
-    return 1;
-}
-
-/* any(v) written out: some lane's sign bit set (PoCL calls its builtin out of line). */
-inline int any4(int4 v) { return (v.x | v.y | v.z | v.w) < 0; }
-
-/* Componentwise TX_MAX (a > b ? a : b: b where either is NaN). */
-inline float4 tx_max4(float4 a, float4 b) { return select(b, a, a > b); }
-
 /* The triangles tr[0..n) of a leaf (n in 1..4) against the ray at once, one per float4
- * lane: the same watertight test as triangle_intersect, lane for lane (the shear as
- * explicit multiply-adds, contraction off), so that most leaves cost one vector test
- * and an early exit instead of n scalar ones (perf, textured meshes on PoCL: the scalar
- * test was 53% of the frame). Lanes >= n repeat triangle 0 (no read past the array)
- * and are masked out. Returns the lane of the nearest hit with t in (tmin, tmax) (ties:
- * the lowest lane, as the scalar loop, which only takes a strictly nearer one), writing
- * t, b1, b2; -1 for none. */
+ * lane, so that most leaves cost one vector test and an early exit instead of n scalar
+ * ones (perf, textured meshes on PoCL: the scalar test was 53% of the frame). Lanes >= n
+ * repeat triangle 0 (no read past the array) and are masked out. Returns the lane of the
+ * nearest hit with t in (tmin, tmax) (ties: the lowest lane, as a loop taking only a
+ * strictly nearer hit would), writing t and the barycentrics b1, b2 of p1, p2
+ * (P = (1 - b1 - b2) P0 + b1 P1 + b2 P2, the lecture's form); -1 for none. Degenerate
+ * (zero-area) triangles and NaN inputs never hit. The shear is written as explicit
+ * multiply-adds under FP_CONTRACT OFF, like the edge functions. */
 inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, uint n,
                                float tmin, float tmax, float* t, float* b1, float* b2)
 {
@@ -129,7 +75,7 @@ inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, ui
     float4 W = bx * ay - by * ax;
 #ifdef cl_khr_fp64
     int4 z = (U == 0.0f) | (V == 0.0f) | (W == 0.0f);
-    if (any4(z)) {                                   /* rare: an edge function rounded to 0 */
+    if (any(z)) {                                   /* rare: an edge function rounded to 0 */
         float u_[4], v_[4], w_[4], ax_[4], ay_[4], bx_[4], by_[4], cx_[4], cy_[4];
         vstore4(U, 0, u_); vstore4(V, 0, v_); vstore4(W, 0, w_);
         vstore4(ax, 0, ax_); vstore4(ay, 0, ay_); vstore4(bx, 0, bx_); vstore4(by, 0, by_);
@@ -147,7 +93,7 @@ inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, ui
     /* NaN edge functions fail both sign tests: a miss. */
     int4 ok = ((U >= 0.0f) & (V >= 0.0f) & (W >= 0.0f)) | ((U <= 0.0f) & (V <= 0.0f) & (W <= 0.0f));
     ok &= (int4)(0, 1, 2, 3) < (int4)((int)n);
-    if (!any4(ok)) return -1;
+    if (!any(ok)) return -1;
     float4 det = U + V + W;
     float4 az = rz.x * Ax + rz.y * Ay + rz.z * Az, bz = rz.x * Bx + rz.y * By + rz.z * Bz;
     float4 cz = rz.x * Cx + rz.y * Cy + rz.z * Cz;
@@ -155,16 +101,18 @@ inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, ui
     float4 inv = 1.0f / det;
     float4 tt = T * inv;
     ok &= (det != 0.0f) & (tt > tmin) & (tt < tmax);     /* NaN t fails */
-    if (!any4(ok)) return -1;
-    /* pbrt-v4's conservative t bound, as in triangle_intersect. */
-    float4 max_z = tx_max4(tx_max4(fabs(az), fabs(bz)), fabs(cz));
-    float4 max_x = tx_max4(tx_max4(fabs(ax), fabs(bx)), fabs(cx));
-    float4 max_y = tx_max4(tx_max4(fabs(ay), fabs(by)), fabs(cy));
+    if (!any(ok)) return -1;
+    /* Reject t within its own rounding-error bound of zero (pbrt-v4 6.5.3,
+     * "Conservative Ray-Triangle t Tests"): a ray leaving a surface from a
+     * point offset by that surface's error bound cannot re-hit it. */
+    float4 max_z = TX_MAX(TX_MAX(fabs(az), fabs(bz)), fabs(cz));
+    float4 max_x = TX_MAX(TX_MAX(fabs(ax), fabs(bx)), fabs(cx));
+    float4 max_y = TX_MAX(TX_MAX(fabs(ay), fabs(by)), fabs(cy));
     float4 delta_z = gamma_n(3.0f) * max_z;
     float4 delta_x = gamma_n(5.0f) * (max_x + max_z);
     float4 delta_y = gamma_n(5.0f) * (max_y + max_z);
     float4 delta_e = 2.0f * (gamma_n(2.0f) * max_x * max_y + delta_y * max_x + delta_x * max_y);
-    float4 max_e = tx_max4(tx_max4(fabs(U), fabs(V)), fabs(W));
+    float4 max_e = TX_MAX(TX_MAX(fabs(U), fabs(V)), fabs(W));
     float4 delta_t = 3.0f * (gamma_n(3.0f) * max_e * max_z + delta_e * max_z + delta_z * max_e) * fabs(inv);
     ok &= tt > delta_t;
     int lane = -1;

@@ -12,8 +12,8 @@ class Features:
     vertex_normals: bool = False   # any mesh carries per-vertex shading normals
     specular: bool = False         # any material has ks > 0
     shadows: bool = True           # trace shadow rays (False: every light is visible)
-    triangles: bool = True         # primitive kinds present in the BVH (without triangles the traversal
-    spheres: bool = False          # skips the watertight test's per-ray shear setup)
+    triangles: bool = True         # primitive kinds present in the BVH (without triangles no
+    spheres: bool = False          # triangle test is compiled, nor its per-ray setup)
     cylinders: bool = False
     quads: bool = False
     projections: bool = False      # some object generates its uv by a projection mapping
