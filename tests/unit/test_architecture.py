@@ -7,11 +7,11 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[2] / "pyhost" / "texray"
 
-# The one import inside a function: Scene.load reads a scene file, and the scene-file
-# reader is built on the scene model (it makes Scenes), so the model cannot import it
-# at module level. Optional third-party modules (trimesh: 0.2 s to import; the peers;
+# The two imports inside functions: Scene.load reads a scene file and Mesh.load a mesh
+# file, and both readers are built on the scene model (they make Scenes and Materials),
+# so the model cannot import them at module level. Optional third-party modules (trimesh: 0.2 s to import; the peers;
 # matplotlib) are imported where used and are not texray modules.
-ALLOWED_LOCAL = {("texray.scene.scene", "texray.io.scenefile")}
+ALLOWED_LOCAL = {("texray.scene.scene", "texray.io.scenefile"), ("texray.scene.mesh", "texray.io.meshfile")}
 
 
 def _modules():

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..device import layout
 from ..linalg import apply_points
+from ..scene.shape import materials_of
 
 
 def object_frame(obj):
@@ -35,5 +36,4 @@ def object_table(objs, always=False):
 
 
 def _object_space_normals(obj):
-    nm = obj.material.normal_map
-    return nm is not None and nm.space == "object"
+    return any(m.normal_map is not None and m.normal_map.space == "object" for m in materials_of(obj))

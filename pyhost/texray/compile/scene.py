@@ -19,7 +19,7 @@ from ..device import buffers, layout
 from ..device.features import Features, max_lights_for, stack_size_for
 from ..errors import SceneError
 from ..scene import Camera, Cylinder, Mesh, Quad, Scene, Sphere
-from ..scene.shape import check_extent, outward
+from ..scene.shape import check_extent, materials_of, outward
 from ..scene.texture import FILTERS
 from .heights import METHOD_ADAPTIVE, METHOD_IDS, height_key, pack_heights
 from .materials import MaterialTable
@@ -77,12 +77,12 @@ def _records(cls, items, mats, any_normals, any_uvs):
     parts = {n: [] for n in names + (("normals", "uvs") if cls is Mesh else ())}
     los, his, voff = [], [], 0
     for obj_id, obj in items:
-        material = mats.index(obj.material)
         if cls is Mesh:
+            material = np.array([mats.index(m) for m in obj.materials], np.int64)
             rec = obj.device_records(material, obj_id, voff, any_normals, any_uvs)
             voff += len(obj.positions)
         else:
-            rec = obj.device_records(material, obj_id)
+            rec = obj.device_records(mats.index(obj.material), obj_id)
         for k, a in rec.arrays.items():
             parts[k].append(a)
         los.append(np.atleast_2d(rec.lo))
@@ -161,7 +161,7 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
     mats = MaterialTable(texture_filter)
     meshes = by_kind[Mesh]
     any_normals = any(m.normals is not None for _, m in meshes)
-    any_uvs = any(m.uvs is not None and m.material.textures for _, m in meshes)
+    any_uvs = any(m.uvs is not None and any(mt.textures for mt in m.materials) for _, m in meshes)
     arrays, boxes = {}, {}
     for cls, _ in _KINDS:
         recs, boxes[cls.PRIM] = _records(cls, by_kind[cls], mats, any_normals, any_uvs)
@@ -208,4 +208,4 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
         features=features, bvh=tree, displaced=disp if len(disp) else None, heights=heights,
         wide_depth=wide_depth, camera=copy.deepcopy(scene.camera),
         objects_generic=object_table(scene.objects, always=True),
-        texture_names=tuple(sorted({t.name for o in scene.objects for t in o.material.textures})))
+        texture_names=tuple(sorted({t.name for o in scene.objects for m in materials_of(o) for t in m.textures})))

@@ -229,7 +229,9 @@ def _object(ob, where, materials, base):
         args["mapping"] = _wrap_errors(lambda: Projection(**ob["mapping"]), f"{where}.mapping.")
     try:
         if kind == "mesh":
-            return Mesh.load(base / ob["mesh"], material=material, transform=tf, mapping=args.get("mapping"))
+            # without a material key the file's own materials (OBJ/MTL, glTF) are kept
+            return Mesh.load(base / ob["mesh"], material=materials[mat_name] if mat_name is not None else None,
+                             transform=tf, mapping=args.get("mapping"))
         if kind == "procedural":
             return _procedural_mesh(ob["generator"], ob.get("params", {}), where, material, tf,
                                     args.get("mapping"))

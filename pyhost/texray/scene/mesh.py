@@ -11,10 +11,9 @@ from .. import validate as V
 from ..accel.scene_bvh import triangle_bounds
 from ..device import layout
 from ..errors import SceneError
-from ..io.meshfile import read_mesh
 from ..linalg import apply_normals, apply_points
 from .material import Material
-from .shape import DeviceRecords, check_extent, check_mapping
+from .shape import DeviceRecords, check_extent, check_mapping, materials_of
 from .transform import Transform
 
 
@@ -29,9 +28,11 @@ class Mesh:
     """A triangle mesh in world space after its ``transform``.
 
     positions (V, 3), faces (F, 3) vertex indices, optional per-vertex uvs
-    (V, 2) and normals (V, 3). Validated on creation: non-finite coordinates,
-    out-of-range indices and a textured material without uvs raise
-    SceneError; zero-area triangles are kept out of the render with a warning
+    (V, 2) and normals (V, 3). ``material``: one Material for every face, or a list of
+    Materials with ``material_ids`` (F,) choosing one per face (a mesh file's ``usemtl``
+    groups or glTF primitives: still one mesh in one BVH). Validated on creation:
+    non-finite coordinates, out-of-range indices and a textured material without uvs
+    raise SceneError; zero-area triangles are kept out of the render with a warning
     (they can never be hit, so no pixel depends on them).
     """
     positions: np.ndarray
@@ -42,6 +43,7 @@ class Mesh:
     transform: Transform | None = None
     name: str = "<mesh>"
     mapping: object = None        # a texray.Projection generating uvs, or None for the mesh's own
+    material_ids: np.ndarray | None = None   # (F,) index into a list ``material``
 
     PRIM = layout.PRIM_TRIANGLE
 
@@ -50,11 +52,27 @@ class Mesh:
 
     @classmethod
     def load(cls, path, material=None, transform=None, mapping=None):
-        """Load OBJ, PLY, GLB/GLTF, OFF or STL through trimesh (unprocessed: nothing is
-        silently merged or dropped; texray.io.meshfile)."""
-        positions, faces, uvs, normals, name = read_mesh(path)
-        return cls(positions, faces, uvs, normals, material if material is not None else Material(), transform,
-                   name, mapping)
+        """Load OBJ (with its MTL), GLB/GLTF, PLY, OFF or STL (texray.io.meshfile: nothing is
+        silently merged or dropped). Without ``material`` the file's own materials are used
+        (OBJ/MTL and glTF; grey for formats without); ``material=`` replaces them all."""
+        # Imported here, as Scene.load imports the scene-file reader: the reader makes
+        # Materials, so the model cannot import it at module level.
+        from ..io.meshfile import read_mesh
+        m = read_mesh(path, materials=material is None)
+        if material is not None:
+            return cls(m.positions, m.faces, m.uvs, m.normals, material, transform, m.name, mapping)
+        return cls(m.positions, m.faces, m.uvs, m.normals, m.materials, transform, m.name, mapping, m.material_ids)
+
+    @property
+    def materials(self) -> tuple:
+        """Every material of the mesh (one unless ``material`` is a list)."""
+        return materials_of(self)
+
+    def face_materials(self) -> np.ndarray:
+        """(F,) index into :attr:`materials` per face."""
+        if self.material_ids is None:
+            return np.zeros(len(self.faces), np.int64)
+        return self.material_ids
 
     def _validate(self):
         if not isinstance(self.name, str):
@@ -89,18 +107,46 @@ class Mesh:
         if self.transform is not None:
             V.instance(self.transform, Transform, "transform", where)
             self.transform.matrix(where + "transform.")
-        V.instance(self.material, Material, "material", where)
-        self.material.validate(f"{where}material.")
-        d = self.material.displacement
-        if d is not None and d.method != "tessellate":    # tessellated shapes are meshes with the shape's material
-            raise SceneError(f"{where}material.displacement: triangle meshes are not displaced (no sound "
-                             "bounding volume chosen); use a quad, sphere or cylinder")
+        ids = self._check_materials(where, len(f))
         check_mapping(self.mapping, where)
-        if self.material.textures and self.uvs is None and self.mapping is None:
-            raise SceneError(f"{where}uvs: the material has a texture ({self.material.textures[0].name}) "
-                             "but the mesh has no texture coordinates")
-        self.positions, self.faces = p, f
+        if self.uvs is None and self.mapping is None:
+            for k, m in enumerate(self.materials):
+                if m.textures:
+                    which = "the material" if len(self.materials) == 1 else f"material[{k}]"
+                    raise SceneError(f"{where}uvs: {which} has a texture ({m.textures[0].name}) "
+                                     "but the mesh has no texture coordinates")
+        self.positions, self.faces, self.material_ids = p, f, ids
         self.uvs, self.normals = arrays.get("uvs"), arrays.get("normals")
+
+    def _check_materials(self, where, n_faces):
+        """Validate ``material`` (one or a list) and ``material_ids``; the ids as int64 or None."""
+        mats = self.materials
+        if not mats:
+            raise SceneError(f"{where}material: an empty list (give a Material, or a list with material_ids)")
+        for k, m in enumerate(mats):
+            field_ = "material" if len(mats) == 1 and not isinstance(self.material, (list, tuple)) else f"material[{k}]"
+            V.instance(m, Material, field_, where)
+            m.validate(f"{where}{field_}.")
+            d = m.displacement
+            if d is not None and d.method != "tessellate":    # tessellated shapes are meshes with the shape's material
+                raise SceneError(f"{where}{field_}.displacement: triangle meshes are not displaced (no sound "
+                                 "bounding volume chosen); use a quad, sphere or cylinder")
+        if self.material_ids is None:
+            if len(mats) > 1:
+                raise SceneError(f"{where}material_ids: required with a list of {len(mats)} materials "
+                                 "(one index per face)")
+            return None
+        raw = self.material_ids
+        if isinstance(raw, (str, bytes)) or np.ndim(raw) != 1:
+            raise SceneError(f"{where}material_ids: expected ({n_faces},) integers (one per face), got "
+                             f"{V.show(raw)}")
+        ids = V.array(np.asarray(raw)[:, None], "material_ids", where, 1, integer_values=True)[:, 0]
+        if ids.shape != (n_faces,):
+            raise SceneError(f"{where}material_ids: expected shape ({n_faces},) (one per face), got {ids.shape}")
+        if ids.size and (ids.min() < 0 or ids.max() >= len(mats)):
+            i = int(np.flatnonzero((ids < 0) | (ids >= len(mats)))[0])
+            raise SceneError(f"{where}material_ids: face {i} has {int(ids[i])}, outside 0..{len(mats) - 1}")
+        return ids.astype(np.int64)
 
     def validate(self):
         """Check every field again (they may have been changed since the mesh was made)."""
@@ -117,7 +163,8 @@ class Mesh:
 
     # --- device records -------------------------------------------------------------
     def device_records(self, material, object_id, vertex_offset, with_normals, with_uvs) -> DeviceRecords:
-        """layout.TRI_VERTS and TRI_SHADE of the triangles that have an area (zero-area ones
+        """``material``: the material table index of each of :attr:`materials` (or one int).
+        layout.TRI_VERTS and TRI_SHADE of the triangles that have an area (zero-area ones
         are skipped with a warning: no ray can hit them), the per-vertex ``normals`` and
         ``uvs`` arrays when the scene has them (zeros for a mesh without), and each
         triangle's box (exact: min/max of float32). ``vertex_offset``: where this mesh's
@@ -135,6 +182,7 @@ class Mesh:
         tv = np.zeros(len(keep), layout.TRI_VERTS)
         tv["p0"], tv["p1"], tv["p2"] = p32[fk[:, 0]], p32[fk[:, 1]], p32[fk[:, 2]]
         t = np.zeros(len(keep), layout.TRI_SHADE)
+        material = np.asarray(material)[self.face_materials()[keep]] if np.ndim(material) else material
         t["material"], t["object"], t["prim"], t["v"] = material, object_id, keep, fk + vertex_offset
         arrays, flags = {"tri_verts": tv, "tri_shade": t}, 0
         if with_normals:

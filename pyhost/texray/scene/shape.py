@@ -74,6 +74,12 @@ def placed(shape, point, where):
     return apply_points(m, point[None])[0], k, rot @ x, rot @ z
 
 
+def materials_of(shape) -> tuple:
+    """Every material of a shape: a mesh's list (texray.Mesh.materials), else its one."""
+    m = shape.material
+    return tuple(m) if isinstance(m, (list, tuple)) else (m,)
+
+
 def check_material(m, where):
     V.instance(m, Material, "material", where)
     m.validate(f"{where}material.")
