@@ -40,6 +40,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..scene import Cylinder, Material, Mesh, Quad, Scene, Sphere, Texture
+from ..scene.shape import materials_of
 
 MITSUBA_VARIANT = "llvm_ad_rgb"
 FALLBACK_VARIANT = "scalar_rgb"
@@ -272,8 +273,8 @@ def comparable_scene(scene: Scene):
     if np.any(np.asarray(scene.ambient, float) != 0):
         notes.append(f"ambient {tuple(scene.ambient)} set to 0 in both renders")
     mats, objects, dropped = {}, [], 0
-    for obj in scene.objects:
-        m = obj.material
+    def without_specular(m):
+        nonlocal dropped
         if id(m) not in mats:
             _, ks, _ = m.validate()
             dropped += bool(np.any(ks > 0))
@@ -281,7 +282,11 @@ def comparable_scene(scene: Scene):
             if getattr(m, "shininess_map", None) is not None:
                 fields["shininess_map"] = None
             mats[id(m)] = dataclasses.replace(m, **fields) if np.any(ks > 0) else m
-        objects.append(dataclasses.replace(obj, material=mats[id(m)]))
+        return mats[id(m)]
+
+    for obj in scene.objects:
+        new = [without_specular(m) for m in materials_of(obj)]
+        objects.append(dataclasses.replace(obj, material=new if isinstance(obj.material, (list, tuple)) else new[0]))
     if dropped:
         notes.append(f"specular set to 0 in {dropped} material(s) in both renders (Mitsuba has no Phong lobe)")
     out = dataclasses.replace(scene, ambient=(0.0, 0.0, 0.0), objects=objects)
@@ -379,10 +384,12 @@ def shape_spec(obj):
     if getattr(obj, "mapping", None) is not None:
         raise Unsupported(f"{where}mapping: projection mappings have no Mitsuba equivalent")
     if isinstance(obj, Mesh):
+        if len(obj.materials) > 1:
+            raise Unsupported(f"{where}material: {len(obj.materials)} materials on one mesh are not converted")
         p, n = obj.world()
         return {"kind": "mesh", "name": obj.name, "positions": p, "faces": obj.faces,
                 "uvs": None if obj.uvs is None else np.asarray(obj.uvs, np.float64), "normals": n,
-                "material": material_spec(obj.material, where=where)}
+                "material": material_spec(obj.materials[0], where=where)}
     if isinstance(obj, Sphere):
         c, r, x, z = obj.world()
         # Mitsuba: uv = (phi/2pi, theta/pi) in its to_world frame; texray: (phi/2pi, 1 - theta/pi)
@@ -433,7 +440,7 @@ def mitsuba_spec(scene: Scene, width, height, spp=16, seed=0, sampler="multijitt
         s = shape_spec(obj)
         if s.get("note"):
             notes.append(s["note"])
-        if np.any(obj.material.validate()[1] > 0):
+        if any(np.any(m.validate()[1] > 0) for m in materials_of(obj)):
             notes.append(f"{obj.name}: specular lobe not converted")
         refl = s["material"]["reflectance"]
         if isinstance(refl, dict) and refl["trilinear_as_bilinear"]:

@@ -24,6 +24,7 @@ from ..compile import compile_scene
 from ..errors import SceneError
 from ..renderer import render
 from ..scene import Bump, Displacement, Scene
+from ..scene.shape import materials_of
 from .suite import median_spread
 from .suite import suite_paths
 
@@ -50,7 +51,7 @@ def error_metrics(img, ref):
 
 
 def _bumps(scene):
-    return [o.material.bump for o in scene.objects if o.material.bump is not None]
+    return [m.bump for o in scene.objects for m in materials_of(o) if m.bump is not None]
 
 
 def _with_role(scene, role, make):
@@ -60,13 +61,19 @@ def _with_role(scene, role, make):
     out = copy.copy(scene)
     out.objects = []
     cache = {}
+    def new(m):
+        old = getattr(m, role)
+        if old is None:
+            return m
+        if id(m) not in cache:
+            cache[id(m)] = dataclasses.replace(m, **{role: make(old)})
+        return cache[id(m)]
+
     for o in scene.objects:
-        old = getattr(o.material, role)
-        if old is not None:
-            if id(o.material) not in cache:
-                cache[id(o.material)] = dataclasses.replace(o.material, **{role: make(old)})
+        mats = materials_of(o)
+        if any(getattr(m, role) is not None for m in mats):
             o = copy.copy(o)
-            o.material = cache[id(o.material)]
+            o.material = [new(m) for m in mats] if isinstance(o.material, (list, tuple)) else new(o.material)
         out.objects.append(o)
     return out
 
@@ -181,7 +188,7 @@ DISP_SCENES = ("terrain", "displaced_wall", "planet")
 
 def displaced(scene):
     """True when some object of ``scene`` has a displacement map."""
-    return any(o.material.displacement is not None for o in scene.objects)
+    return any(m.displacement is not None for o in scene.objects for m in materials_of(o))
 
 
 def with_displacement(scene, method, **knobs):
