@@ -66,7 +66,7 @@ def main(argv=None):
                     help="device to run on (repeatable; default: every CPU and GPU device found)")
     ap.add_argument("--repeat", type=int, default=5, help="timed runs per figure, after one warm-up (default 5)")
     ap.add_argument("--scenes", default=",".join(SUITE),
-                    help=f"suite scenes (names in scenes/bench/ or .toml paths), comma-separated "
+                    help=f"suite scenes (names in texray's scenes/bench/, or .toml paths), comma-separated "
                          f"(default {','.join(SUITE)}; '' for none)")
     ap.add_argument("--size", default=None, help="frame size WxH for every suite scene (default: each scene's)")
     ap.add_argument("--spp", type=int, default=None, help="spp for every suite scene (default: each scene's)")
