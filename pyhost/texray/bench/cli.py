@@ -80,11 +80,13 @@ def main(argv=None):
                                                 "methods against their tessellation)")
     ap.add_argument("--sweep-size", default="320x240", help="frame size of the sweeps (default 320x240)")
     ap.add_argument("--ref-spp", type=int, default=256, help="spp of the sweeps' reference images (default 256)")
-    ap.add_argument("--sweep-spp", default=",".join(map(str, SPP_VALUES)), help="spp values swept")
+    ap.add_argument("--sweep-spp", default=",".join(map(str, SPP_VALUES)),
+                    help=f"spp values swept (default {','.join(map(str, SPP_VALUES))})")
     ap.add_argument("--local-sizes", default="", help="work-group sizes to time on the mixed scene, "
                                                       "e.g. 0,16,32,64,128 (0 = driver's choice)")
     ap.add_argument("--peers", action="store_true", help="also run the peers (pip install texray[peers])")
-    ap.add_argument("--json", default="bench.json", help="JSON results (default bench.json)")
+    ap.add_argument("--json", default=None, metavar="PATH",
+                    help="also write the results as JSON here, for --compare and --from-json (default: no file)")
     ap.add_argument("--report", default=None, help="also write a markdown report here")
     ap.add_argument("--plot", default=None, help="error-against-time plot of the sweeps (PNG; needs matplotlib)")
     args = ap.parse_args(argv)
@@ -167,8 +169,9 @@ def main(argv=None):
             r["peers"] = bench_peers(dev, args.repeat, args.triangles, args.rays or 1024, peer_scenes,
                                      measured=measured)
         print_device(dname, r, out)
-    Path(args.json).write_text(json.dumps(results, indent=1, default=str))
-    out.write(f"\nwrote {args.json}\n")
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=1, default=str))
+        out.write(f"\nwrote {args.json}\n")
     _write_outputs(results, args, out)
     return 0
 
