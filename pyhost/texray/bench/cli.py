@@ -27,17 +27,15 @@ from .sweep import SPP_VALUES, displaced, plot, sweep_scene
 
 
 def _git_commit():
-    """The commit of the source tree the bench runs from (the working directory's
-    repository, else the package's), or None."""
-    for where in (Path.cwd(), Path(__file__).resolve().parent):
-        try:
-            out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                                 cwd=where, timeout=5).stdout.strip()
-        except (OSError, subprocess.SubprocessError):
-            continue
-        if out:
-            return out
-    return None
+    """The commit of the source tree texray runs from (the package's repository), or None
+    (a wheel installed outside one). Not the working directory's: the bench may be run
+    from inside any other repository."""
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                             cwd=Path(__file__).resolve().parent, timeout=5).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out or None
 
 
 def _csv_ints(text, what):
