@@ -6,6 +6,7 @@ import sys
 import time
 from pathlib import Path
 
+from . import __version__
 from .bench import main as bench_main
 from .device import devices
 from .errors import TexrayError
@@ -104,22 +105,31 @@ def main(argv=None):
     if argv[:1] == ["bench"]:             # the benchmark parses its own options
         return bench_main(argv[1:])
     p = argparse.ArgumentParser(prog="texray", description="Ray trace textured scenes with OpenCL.")
+    p.add_argument("--version", action="version", version=f"texray {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("render", help="render a TOML scene file to an image")
-    r.add_argument("scene")
-    r.add_argument("-o", "--output", required=True, help="output image (.png, .jpg, .exr, ...)")
+    r = sub.add_parser("render", help="render a scene file (.toml) to an image",
+                       description="Render a scene file (.toml, see the README's \"Scene files\") to an image. "
+                                   "--width, --height, --spp, --seed and --adaptive, when not given, "
+                                   "come from the scene's [render] table, else the defaults below.")
+    r.add_argument("scene", help="the scene file (.toml); paths in it are relative to it")
+    r.add_argument("-o", "--output", required=True,
+                   help="output image (required): .png, .jpg, .tif (sRGB 8-bit) or .exr (linear half)")
     r.add_argument("--width", type=_positive, help="image width in pixels (default: the scene's [render] width, else 640)")
-    r.add_argument("--height", type=_positive, help="image height in pixels (default: the scene's, else 480)")
-    r.add_argument("--spp", type=_positive, help="samples per pixel (default: the scene's, else 4)")
-    r.add_argument("--seed", type=_non_negative, help="sample-pattern seed (default: the scene's, else 0)")
+    r.add_argument("--height", type=_positive,
+                   help="image height in pixels (default: the scene's [render] height, else 480)")
+    r.add_argument("--spp", type=_positive, help="samples per pixel (default: the scene's [render] spp, else 4)")
+    r.add_argument("--seed", type=_non_negative,
+                   help="sample-pattern seed (default: the scene's [render] seed, else 0)")
     r.add_argument("--adaptive", type=_positive_number, metavar="T",
                    help="adaptive sampling: a pixel stops once the standard error of its mean luminance is <= T "
                         "x max(mean, 0.1); --spp is then the most it takes (default: the scene's [render] "
-                        "adaptive, else off)"),
-    r.add_argument("--device", help="'cpu', 'gpu', an index from 'texray devices', or a name substring")
+                        "adaptive, else off)")
+    r.add_argument("--device", help="'cpu', 'gpu', an index from 'texray devices', or a name substring "
+                                    "(default: PYOPENCL_CTX if set, else a GPU, else PoCL's CPU device)")
     r.add_argument("--aov", action="append", metavar="NAME",
                    help="also write this AOV (repeatable): uv, position, normal, shading_normal, depth, "
-                        "primitive_id, object_id, dpdu, dpdv; into OUT if it is .exr, else OUT.aov.exr")
+                        "primitive_id, object_id, dpdu, dpdv; into OUT if it is .exr, else OUT.aov.exr "
+                        "(default: none)")
     r.set_defaults(func=_cmd_render)
     d = sub.add_parser("devices", help="list OpenCL devices")
     d.set_defaults(func=_cmd_devices)

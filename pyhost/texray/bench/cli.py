@@ -27,17 +27,15 @@ from .sweep import SPP_VALUES, displaced, plot, sweep_scene
 
 
 def _git_commit():
-    """The commit of the source tree the bench runs from (the working directory's
-    repository, else the package's), or None."""
-    for where in (Path.cwd(), Path(__file__).resolve().parent):
-        try:
-            out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                                 cwd=where, timeout=5).stdout.strip()
-        except (OSError, subprocess.SubprocessError):
-            continue
-        if out:
-            return out
-    return None
+    """The commit of the source tree texray runs from (the package's repository), or None
+    (a wheel installed outside one). Not the working directory's: the bench may be run
+    from inside any other repository."""
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                             cwd=Path(__file__).resolve().parent, timeout=5).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out or None
 
 
 def _csv_ints(text, what):
@@ -66,7 +64,7 @@ def main(argv=None):
                     help="device to run on (repeatable; default: every CPU and GPU device found)")
     ap.add_argument("--repeat", type=int, default=5, help="timed runs per figure, after one warm-up (default 5)")
     ap.add_argument("--scenes", default=",".join(SUITE),
-                    help=f"suite scenes (names in scenes/bench/ or .toml paths), comma-separated "
+                    help=f"suite scenes (names in texray's scenes/bench/, or .toml paths), comma-separated "
                          f"(default {','.join(SUITE)}; '' for none)")
     ap.add_argument("--size", default=None, help="frame size WxH for every suite scene (default: each scene's)")
     ap.add_argument("--spp", type=int, default=None, help="spp for every suite scene (default: each scene's)")
@@ -80,11 +78,13 @@ def main(argv=None):
                                                 "methods against their tessellation)")
     ap.add_argument("--sweep-size", default="320x240", help="frame size of the sweeps (default 320x240)")
     ap.add_argument("--ref-spp", type=int, default=256, help="spp of the sweeps' reference images (default 256)")
-    ap.add_argument("--sweep-spp", default=",".join(map(str, SPP_VALUES)), help="spp values swept")
+    ap.add_argument("--sweep-spp", default=",".join(map(str, SPP_VALUES)),
+                    help=f"spp values swept (default {','.join(map(str, SPP_VALUES))})")
     ap.add_argument("--local-sizes", default="", help="work-group sizes to time on the mixed scene, "
                                                       "e.g. 0,16,32,64,128 (0 = driver's choice)")
     ap.add_argument("--peers", action="store_true", help="also run the peers (pip install texray[peers])")
-    ap.add_argument("--json", default="bench.json", help="JSON results (default bench.json)")
+    ap.add_argument("--json", default=None, metavar="PATH",
+                    help="also write the results as JSON here, for --compare and --from-json (default: no file)")
     ap.add_argument("--report", default=None, help="also write a markdown report here")
     ap.add_argument("--plot", default=None, help="error-against-time plot of the sweeps (PNG; needs matplotlib)")
     args = ap.parse_args(argv)
@@ -167,8 +167,9 @@ def main(argv=None):
             r["peers"] = bench_peers(dev, args.repeat, args.triangles, args.rays or 1024, peer_scenes,
                                      measured=measured)
         print_device(dname, r, out)
-    Path(args.json).write_text(json.dumps(results, indent=1, default=str))
-    out.write(f"\nwrote {args.json}\n")
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=1, default=str))
+        out.write(f"\nwrote {args.json}\n")
     _write_outputs(results, args, out)
     return 0
 

@@ -8,6 +8,7 @@ the median over ``repeat`` runs after one warm-up run, with min and max.
 """
 from __future__ import annotations
 
+import importlib.util
 import statistics
 from pathlib import Path
 
@@ -27,28 +28,45 @@ def median_spread(values):
 
 
 def scenes_dir() -> Path:
-    """The repository's ``scenes/`` (from the working directory or the source tree)."""
-    here = Path(__file__).resolve()
-    for base in (Path.cwd(), here.parents[3]):     # pyhost/texray/bench/suite.py -> the repository
-        if (base / "scenes" / "bench").is_dir():
-            return base / "scenes"
-    raise SystemExit("texray bench: scenes/bench/ not found; run from the repository root")
+    """The scenes shipped with texray: the source tree's ``scenes/`` when running from one
+    (pyhost/texray/bench/suite.py -> the repository), else the installed package
+    ``texray.scenes`` (the same folder, put into the wheel). Not the working directory's:
+    the bench runs the same scenes wherever it is started."""
+    repo = Path(__file__).resolve().parents[3] / "scenes"
+    if (repo / "bench").is_dir():
+        return repo
+    try:
+        spec = importlib.util.find_spec("texray.scenes")
+    except ImportError:
+        spec = None
+    for loc in (spec.submodule_search_locations or ()) if spec is not None else ():
+        if (Path(loc) / "bench").is_dir():
+            return Path(loc)
+    raise SystemExit("texray bench: the suite scenes (scenes/bench/) were not found: the installation is incomplete")
 
 
 def suite_paths(names=None) -> dict[str, Path]:
-    """name -> scene file for the chosen suite scenes (default: all of SUITE). A name
-    that is a path to a .toml file is taken as it is."""
-    base = scenes_dir() / "bench"
+    """name -> scene file for the chosen suite scenes (default: all of SUITE): a name of
+    ``scenes/bench/`` (shipped with texray, see :func:`scenes_dir`), or a path to a .toml
+    file, taken as it is (relative to the working directory)."""
     out = {}
     for name in names or SUITE:
         p = Path(name)
-        if p.suffix == ".toml" and p.is_file():
+        if p.suffix == ".toml":
+            if not p.is_file():
+                raise SystemExit(f"texray bench: no scene file {name} (a .toml path is taken relative to the "
+                                 f"working directory {Path.cwd()})")
             out[p.stem] = p
-        elif (base / f"{name}.toml").is_file():
-            out[name] = base / f"{name}.toml"
+        elif (scenes_dir() / "bench" / f"{name}.toml").is_file():
+            out[name] = scenes_dir() / "bench" / f"{name}.toml"
         else:
-            raise SystemExit(f"texray bench: no suite scene {name!r} (known: {', '.join(SUITE)}, or a .toml path)")
+            raise SystemExit(f"texray bench: no suite scene {name!r} (known: {', '.join(_bench_names())}, "
+                             f"or a .toml path)")
     return out
+
+
+def _bench_names():
+    return sorted(p.stem for p in (scenes_dir() / "bench").glob("*.toml"))
 
 
 def frame_stats(runs, samples, shadow_rays):
