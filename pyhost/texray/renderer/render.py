@@ -110,6 +110,7 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     rows = plan_rows(width, height, per_ray, sum(cs.device_bytes().values()), rt.device,
                      memory_limit=memory_limit, tile_pixels=tile_pixels)
     run = _Run(rt, prg, cs, camera, width, height, spp, seed, jitter, local, rows, fused, aovs, adaptive)
+    t_uploaded = time.perf_counter()
     img_rows = rows if sink is not None else height      # with a sink, only one band is kept
     out = np.empty((img_rows, width, 4), np.float32)
     aov_out = np.empty((img_rows, width, layout.AOV_FLOATS), np.float32) if aovs else None
@@ -163,7 +164,8 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         "bvh_binary_nodes": int(len(cs.bvh.nodes)), "bvh_binary_depth": cs.bvh.depth,
         "bvh_build_s": cs.bvh.build_seconds, "sah_cost": cs.bvh.sah_cost,
         "scene_compile_s": t_compiled - t_start, "program_build_s": t_built - t_compiled,
-        "render_s": t_end - t_built, "total_s": t_end - t_start, "stage_s": stage_s,
+        "render_s": t_end - t_built, "upload_s": t_uploaded - t_built, "total_s": t_end - t_start,
+        "stage_s": stage_s,
         "tile_rows": rows, "tiles": (height + rows - 1) // rows, "local_size": local,
         "device_bytes": cs.device_bytes(), "ray_buffer_bytes": run.n_max * per_ray,
         "features": cs.features, "specialized": bool(specialize), "pipeline": pipeline,
