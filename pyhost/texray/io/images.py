@@ -2,6 +2,8 @@
 writing renders."""
 from __future__ import annotations
 
+import os
+import tempfile
 
 import numpy as np
 
@@ -77,6 +79,23 @@ def read_texture_file(path, field):
         with np.errstate(divide="ignore", invalid="ignore"):
             pixels[:, :, colour] = np.where(a > 0, pixels[:, :, colour] / a, 0.0)
     return pixels, colorspace, is_float
+
+
+def read_texture_bytes(data, suffix, field, name):
+    """:func:`read_texture_file` of an image held in memory (an image embedded in a glTF
+    file): ``data`` the encoded bytes, ``suffix`` the extension OpenImageIO picks the
+    decoder by (".png", ".jpg"), ``name`` what error messages call the image (they never
+    name the temporary file the bytes are decoded from)."""
+    fd, tmp = tempfile.mkstemp(suffix=suffix, prefix="texray-image-")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        try:
+            return read_texture_file(tmp, field)
+        except SceneError as e:
+            raise SceneError(str(e).replace(tmp, name)) from None
+    finally:
+        os.unlink(tmp)
 
 
 def _first_line(msg):
