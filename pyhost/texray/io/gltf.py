@@ -110,7 +110,7 @@ def read_gltf(path, materials=True) -> GltfFile:
         if "KHR_lights_punctual" in ext:
             light_nodes.append((ni, world, doc.get(ext, "KHR_lights_punctual", f"{where}.extensions", "dict")))
     lights = _lights(doc, light_nodes, meshes, notes)
-    notes.emit(stacklevel=2)
+    notes.emit(stacklevel=3)      # at read_gltf's caller
     return GltfFile(str(path), meshes, cameras, lights)
 
 
@@ -221,10 +221,11 @@ def _triangles(doc, prim, jpath, mode, n_vertices):
     """(F, 3) vertex indices of a triangles / strip / fan primitive."""
     if "indices" in prim:
         ii = doc.ref(prim, "indices", jpath, "accessors")
-        ct, t, _ = doc.accessor_info(ii, f"{jpath}.indices")
-        if t != "SCALAR" or ct not in INDEX_COMPONENT_TYPES:
-            raise doc.error(f"{jpath}.indices", f"accessors[{ii}] is {t} of componentType {ct}; indices are SCALAR "
-                            f"of {', '.join(map(str, INDEX_COMPONENT_TYPES))}")
+        ct, t, normalized = doc.accessor_info(ii, f"{jpath}.indices")
+        if t != "SCALAR" or ct not in INDEX_COMPONENT_TYPES or normalized:
+            raise doc.error(f"{jpath}.indices", f"accessors[{ii}] is {'normalized ' if normalized else ''}{t} of "
+                            f"componentType {ct}; indices are SCALAR of {', '.join(map(str, INDEX_COMPONENT_TYPES))}, "
+                            "not normalized")
         idx = doc.accessor(ii, f"{jpath}.indices")[:, 0]
         if idx.size and idx.max() >= n_vertices:
             k = int(np.argmax(idx >= n_vertices))

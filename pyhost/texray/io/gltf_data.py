@@ -30,6 +30,9 @@ COMPONENT_TYPES = {5120: np.dtype("<i1"), 5121: np.dtype("<u1"), 5122: np.dtype(
 ACCESSOR_TYPES = {"SCALAR": (1, 1), "VEC2": (1, 2), "VEC3": (1, 3), "VEC4": (1, 4),
                   "MAT2": (2, 2), "MAT3": (3, 3), "MAT4": (4, 4)}
 INDEX_COMPONENT_TYPES = (5121, 5123, 5125)
+# Elements of an accessor without a bufferView (zeros, or a sparse accessor's base): its
+# count is not bounded by any data, so a bound keeps a corrupt count from allocating terabytes.
+MAX_UNBACKED_ELEMENTS = 2 ** 28
 
 _MISSING = object()
 _KINDS = {"int": "an integer", "number": "a number", "str": "a string", "list": "an array",
@@ -288,6 +291,9 @@ class GltfDocument:
                 raise self.error(f"{where}.byteOffset", f"{offset} (expected >= 0)")
             out = self._elements(view, offset, count, dtype, cols, rows, where, strided=True)
         else:
+            if count > MAX_UNBACKED_ELEMENTS:
+                raise self.error(f"{where}.count", f"{count} elements without a bufferView (at most "
+                                 f"{MAX_UNBACKED_ELEMENTS} are read as zeros)")
             out = np.zeros((count, cols * rows), dtype=dtype)
         out = self._convert(out, dtype, normalized)
         if "sparse" in a:
