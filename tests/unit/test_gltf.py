@@ -789,3 +789,16 @@ def test_files_trimesh_writes_read_as_trimesh_reads_them(tmp_path):
         assert sorted(got) == sorted(want) == ["Ball", "Box"]
         for k in want:
             np.testing.assert_allclose(got[k], want[k], atol=1e-6)
+
+
+def test_uris_are_percent_decoded_relative_paths(tmp_path):
+    w = gw.GltfWriter()
+    mat = textured(w, embed="file")
+    w.files = {"my image.png": w.files.pop("image0.png")}
+    w.json["images"][0]["uri"] = "my%20image.png"
+    sub = tmp_path / "sub dir"
+    f, _ = read(quad_file(sub, mat, writer=w, name="u.gltf"))
+    np.testing.assert_allclose(f.meshes[0].materials[0].diffuse.raw, png_values(IMG), atol=1e-7)
+    w.json["images"][0]["uri"] = "http://example.invalid/x.png"
+    with pytest.raises(tx.SceneError, match=r"images\[0\]\.uri: 'http://example\.invalid/x\.png': only relative"):
+        read_gltf(w.write(sub / "u.gltf"))

@@ -187,15 +187,19 @@ class GltfDocument:
                 return base64.b64decode(payload, validate=True), head[:-7] or None, None
             except (binascii.Error, ValueError) as e:
                 raise self.error(jpath, f"invalid base64 in the data: URI ({e})") from None
-        scheme = urllib.parse.urlsplit(uri).scheme
-        if scheme and len(scheme) > 1:              # one letter: a Windows drive
-            raise self.error(jpath, f"{V.show(uri)}: only relative file paths and data: URIs are read")
-        path = self.base / urllib.parse.unquote(uri)
-        path = V.file_path(path, "", f"{self.label}: {jpath}")
+        path = self.uri_path(uri, jpath)
         try:
             return path.read_bytes(), None, path
         except OSError as e:
             raise self.error(jpath, f"cannot read {path}: {e.strerror or e}") from None
+
+    def uri_path(self, uri, jpath):
+        """The existing, readable file a non-data ``uri`` names (relative to the glTF file,
+        percent-decoded)."""
+        scheme = urllib.parse.urlsplit(uri).scheme
+        if scheme and len(scheme) > 1:              # one letter: a Windows drive
+            raise self.error(jpath, f"{V.show(uri)}: only relative file paths and data: URIs are read")
+        return V.file_path(self.base / urllib.parse.unquote(uri), "", f"{self.label}: {jpath}")
 
     def buffer(self, index, jpath):
         """The bytes of buffers[index] (at least its byteLength)."""

@@ -211,7 +211,7 @@ class MaterialBuilder:
                                                          f"{where} (its data: URI)")
             else:
                 try:
-                    _, _, path = doc.uri_bytes(uri, f"{where}.uri")
+                    path = doc.uri_path(uri, f"{where}.uri")
                 except SceneError as e:
                     raise SceneError(f"{doc.label}: {who}: {str(e)[len(doc.label) + 2:]}") from None
                 pixels, _, is_float = read_texture_file(path, field)
