@@ -322,7 +322,8 @@ def test_the_uv_flip_samples_the_texel_gltf_samples(tmp_path):
     f, _ = read(w.write(tmp_path / "uv.glb"))
     m = f.meshes[0]
     np.testing.assert_array_equal(m.uvs, np.column_stack([gl_uv[:, 0], 1 - gl_uv[:, 1].astype(np.float64)]))
-    want = srgb_to_linear(png_values(IMG))[np.floor(gl_uv[:, 1] * h).astype(int), np.floor(gl_uv[:, 0] * wd).astype(int)]
+    row, col = np.floor(gl_uv[:, 1] * h).astype(int), np.floor(gl_uv[:, 0] * wd).astype(int)
+    want = srgb_to_linear(png_values(IMG))[row, col]
     got = texray_sample(m.materials[0], m.uvs)[:, :3]
     np.testing.assert_allclose(got, want, atol=2e-3)
 
@@ -331,7 +332,8 @@ def test_texture_transform_is_the_same_map_in_flipped_coordinates():
     rng = np.random.default_rng(7)
     flip = np.array([1.0, -1.0]), np.array([0.0, 1.0])
     for _ in range(50):
-        offset, rotation, scale = rng.normal(size=2), rng.uniform(-7, 7), rng.uniform(0.2, 3, 2) * rng.choice([-1, 1], 2)
+        offset, rotation = rng.normal(size=2), rng.uniform(-7, 7)
+        scale = rng.uniform(0.2, 3, 2) * rng.choice([-1, 1], 2)
         t = uv_transform_from_gltf(offset, rotation, scale)
         y = rng.normal(size=(20, 2))                              # texray coordinates
         x = y * flip[0] + flip[1]                                 # the same points in glTF's
@@ -485,8 +487,8 @@ def test_metallic_roughness_textures_are_baked_by_the_rule(tmp_path, transforms)
     tb = tm = None
     if transforms:
         xb, xm = ([0.1, 0.2], 0.3, [2, 1.5]), ([-0.4, 0.1], -1.2, [0.7, 1.1])
-        pbr["baseColorTexture"]["extensions"] = {"KHR_texture_transform": dict(zip(("offset", "rotation", "scale"), xb))}
-        pbr["metallicRoughnessTexture"]["extensions"] = {"KHR_texture_transform": dict(zip(("offset", "rotation", "scale"), xm))}
+        for key, x in (("baseColorTexture", xb), ("metallicRoughnessTexture", xm)):
+            pbr[key]["extensions"] = {"KHR_texture_transform": dict(zip(("offset", "rotation", "scale"), x))}
         tb, tm = uv_transform_from_gltf(*xb), uv_transform_from_gltf(*xm)
     mat = w.material(pbrMetallicRoughness=pbr)
     f, _ = read(quad_file(tmp_path, mat, writer=w))

@@ -97,8 +97,8 @@ class GltfDocument:
             return default
         value = float(self.get(obj, key, jpath, "number"))
         if (lo is not None and value < lo) or (hi is not None and value > hi):
-            raise self.error(f"{jpath}.{key}", f"{V.show(value)} is outside "
-                             f"[{'-inf' if lo is None else format(lo, 'g')}, {'inf' if hi is None else format(hi, 'g')}]")
+            a, b = ("-inf" if lo is None else format(lo, "g")), ("inf" if hi is None else format(hi, "g"))
+            raise self.error(f"{jpath}.{key}", f"{V.show(value)} is outside [{a}, {b}]")
         return value
 
     def numbers(self, obj, key, jpath, n, default=_MISSING):
