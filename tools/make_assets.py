@@ -31,8 +31,10 @@ import OpenImageIO as oiio
 REPO = Path(__file__).resolve().parent.parent
 if str(REPO / "pyhost") not in sys.path:
     sys.path.append(str(REPO / "pyhost"))   # PYTHONPATH wins if set
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # tools/gltf_writer.py
 
 from texray import procedural as proc  # noqa: E402
+from texray.procedural.textures import _fbm as fbm  # noqa: E402  (the noise of globe(), float64)
 
 TEX_SIZE = 512
 
@@ -139,7 +141,7 @@ def displacement_heights(size=256, seed=7):
 def globe_height(size, seed=5, sea_level=0.52):
     """Relief of proc.globe's continents (same noise), 0 at sea level and below, 1 at the highest land."""
     h, w = size
-    height = proc._fbm(h, w, (3, 6), 6, seed)
+    height = fbm(h, w, (3, 6), 6, seed)          # float64, as globe() draws its continents
     return np.clip((height - sea_level) / (1 - sea_level), 0, 1)[..., None].astype(np.float32)
 
 
@@ -155,6 +157,81 @@ def normal_map_from_height(height, strength):
     n = np.stack([-strength * dh_du / w, -strength * dh_dv / w, np.ones_like(hgt)], -1)
     n /= np.linalg.norm(n, axis=-1, keepdims=True)
     return ((n + 1.0) / 2.0).astype(np.float32)
+
+
+def _look_at(eye, target, up=(0.0, 1.0, 0.0)):
+    """The 4x4 node matrix of a glTF camera at ``eye`` looking at ``target`` (it looks along -Z)."""
+    eye, target, up = (np.asarray(v, np.float64) for v in (eye, target, up))
+    z = eye - target
+    z /= np.linalg.norm(z)
+    x = np.cross(up, z)
+    x /= np.linalg.norm(x)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, np.cross(z, x), z, eye
+    return m
+
+
+def _rotation_y(degrees):
+    """The (x, y, z, w) quaternion of a rotation about +y."""
+    h = np.radians(degrees) / 2
+    return [0.0, float(np.sin(h)), 0.0, float(np.cos(h))]
+
+
+def gltf_still_life(path):
+    """``scenes/gltf/still_life.glb``: a whole glTF scene for ``texray render`` and the
+    README's "glTF scenes": a node hierarchy (a group rotated by a quaternion), a
+    perspective camera, two KHR_lights_punctual point lights, and metallic-roughness
+    materials: a checker floor (KHR_texture_transform repeats it 3 times), a wooden vase,
+    a gold torus with a roughness map, a marble ball with a normal map (glTF scale 0.8)."""
+    from gltf_writer import GltfWriter, gltf_uvs
+    w = GltfWriter(generator="texray tools/make_assets.py")
+    w.use_extension("KHR_texture_transform")
+    size = 256
+    repeat = w.sampler(wrapS=10497, wrapT=10497)
+
+    def tex(pixels, sampler=repeat):
+        return w.texture(w.image(pixels), sampler)
+
+    def prim(m, material):
+        return w.primitive(m.positions, m.faces, uvs=gltf_uvs(m.uvs), normals=m.normals, material=material)
+
+    floor_mat = w.material(name="floor", pbrMetallicRoughness={
+        "baseColorTexture": {"index": tex(proc.checker(size, n_checks=4)),
+                             "extensions": {"KHR_texture_transform": {"scale": [3.0, 3.0]}}},
+        "metallicFactor": 0.0, "roughnessFactor": 0.8})
+    wood_mat = w.material(name="wood", pbrMetallicRoughness={
+        "baseColorTexture": {"index": tex(proc.wood(size, seed=7))}, "metallicFactor": 0.0,
+        "roughnessFactor": 0.45})
+    # metallic-roughness texture: G = roughness (brushed streaks), B = metallic (1: all metal)
+    rough = 0.35 + 0.3 * proc.value_noise(size, seed=11, cells=8)[..., 0]
+    mr = np.stack([np.zeros_like(rough), rough, np.ones_like(rough)], -1)
+    gold_mat = w.material(name="gold", pbrMetallicRoughness={
+        "baseColorFactor": [1.0, 0.78, 0.34, 1.0], "metallicFactor": 1.0, "roughnessFactor": 1.0,
+        "metallicRoughnessTexture": {"index": tex(mr)}})
+    tiles = normal_map_from_height(
+        proc.bricks_height(size, n_rows=6, n_cols=6, mortar=0.08, bevel=0.06, seed=4, offset=0.0), 6.0)
+    marble_mat = w.material(name="marble", pbrMetallicRoughness={
+        "baseColorTexture": {"index": tex(proc.marble(size, seed=3))}, "metallicFactor": 0.0,
+        "roughnessFactor": 0.3}, normalTexture={"index": tex(tiles), "scale": 0.8})
+
+    floor = w.node(name="Floor", mesh=w.mesh([prim(proc.grid(1, 1, size=(6, 6)), floor_mat)], name="floor"))
+    vase = w.node(name="Vase", mesh=w.mesh([prim(proc.vase(48, 36), wood_mat)], name="vase"),
+                  translation=[-0.65, 0.0, -0.1], scale=[1.3, 1.3, 1.3])
+    torus = w.node(name="Torus", mesh=w.mesh([prim(proc.torus(64, 24, R=0.42, r=0.14), gold_mat)], name="torus"),
+                   translation=[0.75, 0.14, 0.0])
+    ball = w.node(name="Ball", mesh=w.mesh([prim(proc.uv_sphere(64, 32, radius=0.32), marble_mat)], name="ball"),
+                  translation=[0.25, 0.32, 0.95])
+    group = w.node(name="Group", children=[torus, ball], rotation=_rotation_y(-25.0))
+    cam = w.node(name="Camera", camera=w.camera(np.radians(36.0), aspect_ratio=4 / 3, name="main"),
+                 matrix=_look_at((2.2, 1.9, 3.7), (0.05, 0.45, 0.1)))
+    top = w.node(name="Camera top", camera=w.camera(np.radians(45.0), aspect_ratio=1.0, name="top"),
+                 matrix=_look_at((0.0, 5.0, 0.01), (0.0, 0.0, 0.0), up=(0.0, 0.0, -1.0)))
+    key = w.node(name="Key light", translation=[-2.5, 4.0, 2.5],
+                 extensions={"KHR_lights_punctual": {"light": w.light("point", (1.0, 0.95, 0.85), 34.0)}})
+    fill = w.node(name="Fill light", translation=[3.0, 2.0, -1.5],
+                  extensions={"KHR_lights_punctual": {"light": w.light("point", (0.75, 0.85, 1.0), 9.0)}})
+    w.scene([floor, vase, group, cam, top, key, fill])
+    return w.write(path)
 
 
 def main(argv=None):
@@ -177,6 +254,8 @@ def main(argv=None):
         path = out / "textures" / name
         write_png(path, image, "linear", bits=16)
         print(f"{path}: {image.shape} 16-bit, {path.stat().st_size / 1024:.0f} KiB")
+    path = gltf_still_life(out / "gltf" / "still_life.glb")
+    print(f"{path}: {path.stat().st_size / 1024:.0f} KiB")
 
 
 if __name__ == "__main__":

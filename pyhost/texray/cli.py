@@ -64,10 +64,12 @@ def _positive_number(text):
 
 
 def _cmd_render(args):
-    scene = Scene.load(args.scene)
+    scene = Scene.load(args.scene, camera=args.camera)
     settings = getattr(scene, "render_settings", {})
     width = args.width if args.width is not None else settings.get("width", 640)
     height = args.height if args.height is not None else settings.get("height", 480)
+    if args.width is not None and args.height is None and settings.get("aspect"):   # a glTF camera's aspect ratio
+        height = max(1, round(width / settings["aspect"]))
     spp = args.spp if args.spp is not None else settings.get("spp", 4)
     seed = args.seed if args.seed is not None else settings.get("seed", 0)
     adaptive = args.adaptive if args.adaptive is not None else settings.get("adaptive")
@@ -107,11 +109,14 @@ def main(argv=None):
     p = argparse.ArgumentParser(prog="texray", description="Ray trace textured scenes with OpenCL.")
     p.add_argument("--version", action="version", version=f"texray {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("render", help="render a scene file (.toml) to an image",
-                       description="Render a scene file (.toml, see the README's \"Scene files\") to an image. "
+    r = sub.add_parser("render", help="render a scene file (.toml, .gltf, .glb) to an image",
+                       description="Render a scene file (.toml, see the README's \"Scene files\"; or a whole "
+                                   "glTF 2.0 file, .gltf/.glb, see \"glTF scenes\") to an image. "
                                    "--width, --height, --spp, --seed and --adaptive, when not given, "
                                    "come from the scene's [render] table, else the defaults below.")
-    r.add_argument("scene", help="the scene file (.toml); paths in it are relative to it")
+    r.add_argument("scene", help="the scene file (.toml, .gltf, .glb); paths in it are relative to it")
+    r.add_argument("--camera", metavar="NAME",
+                   help="glTF files: the camera node to render from (default: the file's first camera)")
     r.add_argument("-o", "--output", required=True,
                    help="output image (required): .png, .jpg, .tif (sRGB 8-bit) or .exr (linear half)")
     r.add_argument("--width", type=_positive, help="image width in pixels (default: the scene's [render] width, else 640)")

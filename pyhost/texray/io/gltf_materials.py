@@ -7,9 +7,18 @@ The rule (glTF 2.0 metallic-roughness -> the lecture's Phong constants), per poi
     baseColor = baseColorFactor.rgb * baseColorTexture.rgb (sRGB decoded)
     m = metallicFactor * metallicRoughnessTexture.b,  r = roughnessFactor * metallicRoughnessTexture.g
     kd = baseColor (1 - m)
-    ks = 0.04 (1 - m) + baseColor m                  (the glTF spec's F0)
-    n  = 2 / alpha^2 - 2, alpha = r^2, clamped to [1, 2048]
-                                     (Walter et al. 2007: Beckmann alpha <-> Phong exponent)
+    F0 = 0.04 (1 - m) + baseColor m                  (the glTF spec's specular reflectance)
+    n  = (2 / alpha^2 - 2) / 4, alpha = r^2, clamped to [1, 2048]
+    ks = F0 (2 n + 1) / 4
+
+Why: Walter et al. 2007 (eq. 33) match a microfacet lobe of roughness alpha with a
+normalized Blinn-Phong distribution D = (n' + 2) / 2pi (N.H)^n', n' = 2 / alpha^2 - 2. The
+lecture's lobe is Phong's (R.V)^n, and (N.H)^n' ~ (R.V)^(n'/4) (the angle between R and V
+is twice the angle between N and H), so n = n' / 4. Its height: at the highlight the
+microfacet radiance is E F D / 4 (G = 1, N.V = 1), and texray's terms are pi times
+radiance (the lecture's Lambert kd (N.L) has no 1/pi), so ks = pi F0 (n' + 2) / 8pi =
+F0 (2 n + 1) / 4: smooth surfaces get small bright highlights, rough ones broad dim ones,
+as in a glTF viewer, instead of the same peak F0 for all.
 
 Constant factors give constants; textures are baked on the host (see :class:`MaterialBuilder`).
 
@@ -46,11 +55,18 @@ IGNORED_TOPIC = "ignored (texray has no equivalent)"
 # --- the rule -------------------------------------------------------------------------
 def phong_exponent(roughness):
     """The Phong exponent n of glTF roughness r (array or number): alpha = r^2 (the spec's
-    GGX alpha, read as Beckmann's), n = 2 / alpha^2 - 2 (Walter et al. 2007, eq. 33's
-    correspondence), clamped to [1, 2048]; r is clipped to [0, 1] first."""
+    GGX alpha, read as Beckmann's), n = (2 / alpha^2 - 2) / 4 (Walter et al. 2007, eq. 33's
+    Blinn-Phong exponent, over 4 for the lecture's (R.V)^n lobe), clamped to [1, 2048]; r is
+    clipped to [0, 1] first."""
     r = np.clip(np.asarray(roughness, dtype=np.float64), 0.0, 1.0)
     alpha2 = np.maximum(r ** 4, 1e-300)
-    return np.clip(2.0 / alpha2 - 2.0, SHININESS_MIN, SHININESS_MAX)
+    return np.clip((2.0 / alpha2 - 2.0) / 4.0, SHININESS_MIN, SHININESS_MAX)
+
+
+def specular_scale(n):
+    """ks / F0 for a Phong exponent n: (2 n + 1) / 4, the normalized lobe's peak in
+    texray's units (module docstring)."""
+    return (2.0 * np.asarray(n, dtype=np.float64) + 1.0) / 4.0
 
 
 def metal_rough_to_phong(base_rgb, metallic, roughness):
@@ -58,7 +74,9 @@ def metal_rough_to_phong(base_rgb, metallic, roughness):
     linear, ``metallic`` and ``roughness`` (...)."""
     base = np.asarray(base_rgb, dtype=np.float64)
     m = np.clip(np.asarray(metallic, dtype=np.float64), 0.0, 1.0)[..., None]
-    return base * (1.0 - m), DIELECTRIC_F0 * (1.0 - m) + base * m, phong_exponent(roughness)
+    n = phong_exponent(roughness)
+    f0 = DIELECTRIC_F0 * (1.0 - m) + base * m
+    return base * (1.0 - m), f0 * specular_scale(n)[..., None], n
 
 
 def uv_transform_from_gltf(offset=(0.0, 0.0), rotation=0.0, scale=(1.0, 1.0)):
@@ -309,7 +327,10 @@ class MaterialBuilder:
     def _build(self, index):
         doc = self.doc
         if index is None:
-            mat, where, who = {}, "(default material)", "the default material"
+            # glTF's default material is a white, fully rough metal (kd 0, ks 1, n 1 by the rule
+            # above): a broad grey sheen that reads as a bug. Primitives without a material get
+            # texray's default grey diffuse material instead, as viewers show them.
+            return Material()
         else:
             mat = doc.item("materials", index)
             where = who = f"materials[{index}]"
@@ -363,21 +384,21 @@ class MaterialBuilder:
           (1 - m) per texel of the base colour texture, m bilinear from the
           metallic-roughness texture at the same surface point (each texture's transform
           undone and applied; both read TEXCOORD_0).
-        * base colour texture, constant m > 0: ks = 0.04 (1 - m) + base x factor x m per
-          texel of the base colour texture (m = 0: ks = 0.04).
+        * base colour texture, constant m > 0: ks = (0.04 (1 - m) + base x factor x m) x
+          (2 n + 1) / 4 per texel of the base colour texture (m = 0: a constant).
         Filtering a bake is not baking the filtered textures (kd, ks are products of
         filtered values in glTF renderers): texel-scale approximation."""
         if mr is None and base is None:
             kd, ks, n = metal_rough_to_phong(factor, metallic, roughness)
             return dict(diffuse=_floats(kd), specular=_floats(ks), shininess=float(n))
         if mr is None:
-            kw = dict(diffuse=base.texture, tint=_floats(factor * (1.0 - metallic)),
-                      shininess=float(phong_exponent(roughness)))
+            n = float(phong_exponent(roughness))
+            kw = dict(diffuse=base.texture, tint=_floats(factor * (1.0 - metallic)), shininess=n)
             if metallic == 0:
-                kw["specular"] = DIELECTRIC_F0
+                kw["specular"] = float(DIELECTRIC_F0 * specular_scale(n))
             else:
                 b = base.texture
-                ks = DIELECTRIC_F0 * (1 - metallic) + b.rgba[:, :, :3] * factor * metallic
+                ks = (DIELECTRIC_F0 * (1 - metallic) + b.rgba[:, :, :3] * factor * metallic) * specular_scale(n)
                 kw["specular"] = self._baked(ks, b, f"{who} ks")
             return kw
         t = mr.texture

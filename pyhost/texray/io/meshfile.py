@@ -1,6 +1,6 @@
-"""Mesh files: OBJ (with its MTL materials), PLY, OFF and STL through trimesh, read
-unprocessed (nothing silently merged or dropped), glTF through texray.io.gltf; every
-file reported by name when unreadable."""
+"""Mesh files: OBJ (with its MTL materials: texray.io.mtl), PLY, OFF and STL through
+trimesh, read unprocessed (nothing silently merged or dropped), glTF through
+texray.io.gltf; every file reported by name when unreadable."""
 from __future__ import annotations
 
 import re
@@ -13,6 +13,7 @@ from ..errors import SceneError
 from ..linalg import apply_normals, apply_points
 from ..scene.material import Material
 from .. import validate as V
+from .gltf import read_gltf
 from .mtl import read_mtl, to_materials
 
 
@@ -32,6 +33,11 @@ def read_mesh(path, materials=True) -> MeshData:
     the file's materials when ``materials`` (OBJ/MTL, glTF; else one default Material)."""
     path = V.file_path(path, "mesh")
     kind = path.suffix.lower().lstrip(".")
+    if kind in ("gltf", "glb"):
+        g = read_gltf(path, materials=materials)
+        if not g.meshes:
+            raise SceneError(f"mesh: {path} contains no triangles")
+        return merge_meshes(g.meshes, str(path), materials)
     libs = _mtllibs(path) if kind == "obj" and materials else []
     entries = {}
     for lib in libs:

@@ -21,6 +21,7 @@ from ..scene import (Bump, Camera, Cylinder, Displacement, Label, Material, Mesh
 from ..scene.mapping import WRAP_MODES
 from ..scene.texture import DEFAULT_MAX_ANISO
 from .. import validate as V
+from .gltf_scene import load_gltf_scene
 
 _NUM = (int, float)
 _VEC = (list,)
@@ -81,9 +82,15 @@ def _check_table(table, kind, where):
             raise SceneError(f"{where}: missing required key {key!r}")
 
 
-def load_scene(path) -> Scene:
-    """Parse a scene file into a :class:`Scene`; ``scene.render_settings`` holds its [render] table."""
+def load_scene(path, camera=None) -> Scene:
+    """Parse a scene file into a :class:`Scene`: TOML (the README's "Scene files";
+    ``scene.render_settings`` holds its [render] table) or a whole glTF 2.0 file (.gltf,
+    .glb: texray.io.gltf_scene; ``camera`` names the camera to use, default the first)."""
     path = V.file_path(path, "scene")
+    if path.suffix.lower() in (".gltf", ".glb"):
+        return load_gltf_scene(path, camera)
+    if camera is not None:
+        raise SceneError(f"{path}: camera: only a glTF file names its cameras; a TOML scene has one [camera]")
     try:
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:

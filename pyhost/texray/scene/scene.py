@@ -52,10 +52,11 @@ class Scene:
         return obj
 
     @classmethod
-    def load(cls, path):
-        """Read a TOML scene file (see the README's "Scene files"); the same as
-        :func:`texray.load_scene`."""
+    def load(cls, path, camera=None):
+        """Read a TOML scene file (see the README's "Scene files") or a whole glTF file
+        (.gltf, .glb; ``camera``: the name of its camera to use, default the first); the
+        same as :func:`texray.load_scene`."""
         # The one import inside a function in texray: the scene-file reader is built on this
         # module (it makes Scenes), so the model cannot import it at module level.
         from ..io.scenefile import load_scene
-        return load_scene(path)
+        return load_scene(path, camera)
