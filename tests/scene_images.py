@@ -27,7 +27,8 @@ WIDTH, HEIGHT, SPP = 96, 72, 2
 
 
 def scene_paths():
-    return sorted(SCENES.rglob("*.toml"))
+    """Every TOML scene and whole glTF scene in scenes/."""
+    return sorted([*SCENES.rglob("*.toml"), *SCENES.rglob("*.glb"), *SCENES.rglob("*.gltf")])
 
 
 def key(path) -> str:
@@ -35,7 +36,7 @@ def key(path) -> str:
 
 
 def png_path(path) -> Path:
-    return STORE / (key(path).replace("/", "__").removesuffix(".toml") + ".png")
+    return STORE / (key(path).replace("/", "__").removesuffix(path.suffix) + ".png")
 
 
 def device_signature(device=None) -> str:
