@@ -183,6 +183,8 @@ class _Pixels:
     """Raw pixels shared by the variants of one texture, with the role kinds and MIP
     pyramids made from them on first use."""
 
+    DERIVED = ("_rgba", "_levels")      # caches of values made from the others: not content (texray.compile.scene_hash)
+
     def __init__(self, raw, colorspace):
         self.raw, self.colorspace = raw, colorspace
         self._rgba, self._levels = {}, {}
