@@ -93,3 +93,23 @@ def rng(request):
 @pytest.fixture
 def scenes_dir():
     return ROOT / "scenes"
+
+
+# The scene cache (texray.compile.cache) is off in the tests: every render compiles its
+# scene as it did before the cache, and nothing is written to the user's cache folder.
+# tests/unit/test_scene_cache.py and tests/render/test_scene_cache_render.py turn it on in
+# temporary folders (the cache_env fixture).
+os.environ["TEXRAY_NO_CACHE"] = "1"
+os.environ["TEXRAY_CACHE_DIR"] = str(Path(os.environ.get("TMPDIR", "/tmp")) / f"texray-test-cache-{os.getpid()}")
+
+
+@pytest.fixture
+def cache_env(tmp_path, monkeypatch):
+    """The scene cache on, in an empty folder, storing every scene however fast it compiles;
+    the folder."""
+    folder = tmp_path / "scene-cache"
+    monkeypatch.delenv("TEXRAY_NO_CACHE", raising=False)
+    monkeypatch.setenv("TEXRAY_CACHE_DIR", str(folder))
+    monkeypatch.setenv("TEXRAY_CACHE_MIN_S", "0")
+    monkeypatch.delenv("TEXRAY_CACHE_SIZE", raising=False)
+    return folder

@@ -1,4 +1,5 @@
-"""Exceptions raised by texray. Every message names the file, field and value at fault."""
+"""Exceptions raised by texray, and the scene cache's warning. Every message names the file, field
+and value at fault."""
 
 
 class TexrayError(Exception):
@@ -15,3 +16,11 @@ class DeviceError(TexrayError, RuntimeError):
 
 class BuildError(TexrayError, RuntimeError):
     """An OpenCL program failed to build; the message holds the compiler log."""
+
+
+class CacheError(TexrayError, ValueError):
+    """A bad setting of the scene cache (texray.compile.cache): the variable and its value."""
+
+
+class CacheWarning(UserWarning):
+    """The scene cache could not read or write a file; the render went on without it."""
