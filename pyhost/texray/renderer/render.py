@@ -17,7 +17,7 @@ import time
 import numpy as np
 import pyopencl as cl
 
-from ..compile import CompiledScene, compile_scene
+from ..compile import CompiledScene, cache as scene_cache
 from ..compile.textures import check_device_limits
 from ..device import layout, runtime
 from ..device.buffers import Uploaded
@@ -38,7 +38,7 @@ RAY_BYTES = layout.RAY.itemsize + layout.HIT.itemsize + layout.SURFACE.itemsize 
 
 def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=True, shadows=True,
            aovs=(), specialize=True, local_size=None, memory_limit=None, tile_pixels=None, progress=None,
-           sink=None, compiled=None, texture_filter=None, pipeline="fused", adaptive=None) -> Image:
+           sink=None, compiled=None, texture_filter=None, pipeline="fused", adaptive=None, cache=True) -> Image:
     """Render ``scene`` to a linear RGB image.
 
     spp: samples per pixel (correlated multi-jittered within the pixel, box
@@ -81,9 +81,16 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     still samples (:mod:`texray.renderer.adaptive`); spp is then the most a
     pixel takes. ``stats["samples"]`` counts the samples taken. Fused pipeline
     only.
+    cache: True (default) reads the compiled scene from the scene cache when this
+    scene (not counting the camera) was compiled before, in any process, and stores
+    it when its compile took long enough (:mod:`texray.compile.cache`; the README's
+    "Scene cache"); False compiles it here and leaves the cache alone, as does
+    ``TEXRAY_NO_CACHE=1``. ``stats["scene_cache"]``: "hit", "stored", "miss" or
+    "off"; the same image either way.
     """
     width, height, spp, seed = V.render_settings(width, height, spp, seed)
-    aovs = _check_options(aovs, pipeline, progress, sink, jitter=jitter, shadows=shadows, specialize=specialize)
+    aovs = _check_options(aovs, pipeline, progress, sink, jitter=jitter, shadows=shadows, specialize=specialize,
+                          cache=cache)
     if adaptive is not None:
         adaptive = V.number(adaptive, "adaptive", "render: ", 0.0, lo_open=True)
         if pipeline != "fused":
@@ -91,7 +98,7 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     if sink is None:
         check_host_memory(host_image_bytes(width, height, aovs), width, height)
     t_start = time.perf_counter()
-    cs, camera = _compiled(scene, compiled, shadows, texture_filter, aovs, specialize)
+    cs, camera, cache_stats = _compiled(scene, compiled, shadows, texture_filter, aovs, specialize, cache)
     if adaptive is not None:
         cs.features = dataclasses.replace(cs.features, adaptive=True)
     t_compiled = time.perf_counter()
@@ -170,6 +177,7 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         "device_bytes": cs.device_bytes(), "ray_buffer_bytes": run.n_max * per_ray,
         "features": cs.features, "specialized": bool(specialize), "pipeline": pipeline,
         "adaptive": adaptive, "samples": run.samples if adaptive is not None else width * height * spp,
+        **cache_stats,
     }
     return Image(rgb=rgb, aov=aov, stats=stats)
 
@@ -211,12 +219,14 @@ def _check_options(aovs, pipeline, progress, sink, **flags):
     return aovs
 
 
-def _compiled(scene, compiled, shadows, texture_filter, aovs, specialize):
-    """(the CompiledScene to render with the features these settings need, the camera)."""
+def _compiled(scene, compiled, shadows, texture_filter, aovs, specialize, cache):
+    """(the CompiledScene to render with the features these settings need, the camera,
+    the scene cache's stats)."""
     if isinstance(scene, CompiledScene) and compiled is None:
         compiled, scene = scene, None
+    cache_stats = scene_cache.off_stats()
     if compiled is None:
-        cs = compile_scene(scene, shadows=shadows, texture_filter=texture_filter)
+        cs, cache_stats = scene_cache.compiled(scene, shadows=shadows, texture_filter=texture_filter, enabled=cache)
     elif texture_filter is not None:
         raise SceneError(f"render: texture_filter={texture_filter!r} with a precompiled scene: pass it to "
                          "compile_scene(scene, texture_filter=...) instead")
@@ -233,7 +243,7 @@ def _compiled(scene, compiled, shadows, texture_filter, aovs, specialize):
         cs.features = generic_features(cs.features)
         if cs.objects is None:                     # the generic program reads every object's mapping
             cs.objects = cs.objects_generic
-    return cs, (scene.camera if scene is not None else cs.camera)
+    return cs, (scene.camera if scene is not None else cs.camera), cache_stats
 
 
 class _Run:
