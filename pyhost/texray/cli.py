@@ -1,4 +1,4 @@
-"""Command line: ``texray render``, ``texray devices``, ``texray bench``."""
+"""Command line: ``texray render``, ``texray devices``, ``texray bench``, ``texray cache``."""
 from __future__ import annotations
 
 import argparse
@@ -8,6 +8,7 @@ from pathlib import Path
 
 from . import __version__
 from .bench import main as bench_main
+from .compile import cache as scene_cache
 from .device import devices
 from .errors import TexrayError
 from .io.images import write_exr_layers
@@ -77,7 +78,7 @@ def _cmd_render(args):
     bar = _Progress()
     try:
         image = render(scene, width=width, height=height, spp=spp, device=device, seed=seed, progress=bar,
-                       aovs=tuple(args.aov or ()), adaptive=adaptive)
+                       aovs=tuple(args.aov or ()), adaptive=adaptive, cache=not args.no_cache)
     finally:
         bar.close()
     image.save(args.output)
@@ -92,6 +93,17 @@ def _cmd_render(args):
           f"render {s['render_s']:.2f} s (program build {s['program_build_s']:.2f} s, "
           f"scene {s['scene_compile_s']:.2f} s); device memory {sum(db.values()) / 2**20:.1f} MiB scene "
           f"(textures {db.get('texels', 0) / 2**20:.1f}) + {s['ray_buffer_bytes'] / 2**20:.1f} MiB rays")
+
+
+def _cmd_cache(args):
+    if args.action == "clear":
+        n, size = scene_cache.clear()
+        print(f"removed {n} compiled scenes ({size / 2**20:.1f} MiB) from {scene_cache.settings().directory}")
+        return
+    i = scene_cache.info()
+    print(f"{i['directory']}: {i['entries']} compiled scenes, {i['bytes'] / 2**20:.1f} MiB of at most "
+          f"{i['size_limit'] / 2**20:.0f} MiB ({scene_cache.ENV_SIZE}); "
+          f"{'on' if i['enabled'] else 'off (' + scene_cache.ENV_OFF + ')'}")
 
 
 def _cmd_devices(args):
@@ -135,7 +147,15 @@ def main(argv=None):
                    help="also write this AOV (repeatable): uv, position, normal, shading_normal, depth, "
                         "primitive_id, object_id, dpdu, dpdv; into OUT if it is .exr, else OUT.aov.exr "
                         "(default: none)")
+    r.add_argument("--no-cache", action="store_true",
+                   help="compile the scene here, neither reading nor writing the scene cache (see 'texray cache')")
     r.set_defaults(func=_cmd_render)
+    c = sub.add_parser("cache", help="the compiled-scene cache: 'info' (where, how big) or 'clear'",
+                       description="Compiled scenes (BVH, packed arrays, MIP pyramids) are kept by content hash "
+                                   "so that rendering a scene again skips compiling it (the README's \"Scene "
+                                   "cache\"): TEXRAY_CACHE_DIR, TEXRAY_CACHE_SIZE, TEXRAY_NO_CACHE=1.")
+    c.add_argument("action", choices=("info", "clear"), nargs="?", default="info")
+    c.set_defaults(func=_cmd_cache)
     d = sub.add_parser("devices", help="list OpenCL devices")
     d.set_defaults(func=_cmd_devices)
     sub.add_parser("bench", help="run the kernel benchmark (see 'texray bench --help')")

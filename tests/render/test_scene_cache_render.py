@@ -1,6 +1,6 @@
 """Renders through the scene cache: a hit renders bit for bit the image of the render
 that stored it (in this process and in fresh ones), with the scene's current camera;
-``render(cache=False)``."""
+``render(cache=False)``, ``texray render --no-cache`` and ``texray cache``."""
 import json
 import os
 import subprocess
@@ -12,6 +12,7 @@ import pytest
 
 import texray as tx
 from cache_scenes import rich_scene
+from texray.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
 W, H = 64, 48
@@ -80,6 +81,22 @@ def test_a_fresh_process_hits_and_renders_the_same_image(cache_env, device, tmp_
     first, second = np.load(tmp_path / "0.npy"), np.load(tmp_path / "1.npy")
     np.testing.assert_array_equal(first, second)
     np.testing.assert_array_equal(second, tx.render(rich_scene(), W, H, 2, device=device, cache=False).rgb)
+
+
+def test_cli_no_cache_and_the_cache_command(cache_env, tmp_path, capsys):
+    scene = ROOT / "scenes" / "showcase.toml"
+    args = ["render", str(scene), "-o", str(tmp_path / "a.png"), "--width", "40", "--height", "30", "--spp", "1"]
+    assert main(args + ["--no-cache"]) == 0
+    assert not cache_env.exists() or not list(cache_env.iterdir())
+    assert main(args) == 0
+    assert len(list(cache_env.iterdir())) == 1
+    capsys.readouterr()
+    assert main(["cache", "info"]) == 0
+    out = capsys.readouterr().out
+    assert str(cache_env) in out and "1 compiled scenes" in out and "2048 MiB" in out and "on" in out
+    assert main(["cache", "clear"]) == 0
+    assert "removed 1 compiled scenes" in capsys.readouterr().out
+    assert not list(cache_env.iterdir())
 
 
 def test_render_cache_argument_is_checked(cache_env):
