@@ -101,8 +101,12 @@ def test_off_by_argument_and_by_environment(cache_env, monkeypatch):
     cs, st = cache.compiled(rich_scene(), enabled=False)
     assert st == cache.off_stats() and st["scene_cache"] == "off"
     monkeypatch.setenv("TEXRAY_NO_CACHE", "1")
+    monkeypatch.setenv("TEXRAY_CACHE_SIZE", "not read when off")
     assert cache.compiled(rich_scene())[1]["scene_cache"] == "off"
     assert not cache_env.exists()
+    monkeypatch.setenv("TEXRAY_NO_CACHE", "0")
+    with pytest.raises(CacheError, match="TEXRAY_CACHE_SIZE"):
+        cache.compiled(rich_scene())
 
 
 def test_quick_compiles_uncacheable_scenes_and_oversized_entries_are_not_stored(cache_env, monkeypatch):

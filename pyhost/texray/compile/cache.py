@@ -59,11 +59,15 @@ def settings(environ=None) -> Settings:
     else:
         base = env.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
         directory = Path(base) / "texray" / "scenes"
-    off = env.get(ENV_OFF, "").strip().lower()
-    if off not in ("", "0", "1", "false", "true", "no", "yes", "off", "on"):
+    return Settings(directory, _size(env.get(ENV_SIZE)), _seconds(env.get(ENV_MIN)), not _off(env))
+
+
+def _off(env) -> bool:
+    """TEXRAY_NO_CACHE: 1 (true, yes, on) turns the cache off; unset, empty or 0 (false, no, off) not."""
+    text = env.get(ENV_OFF, "").strip().lower()
+    if text not in ("", "0", "1", "false", "true", "no", "yes", "off", "on"):
         raise CacheError(f"{ENV_OFF}: expected 1 (no scene cache) or 0, got {env[ENV_OFF]!r}")
-    return Settings(directory, _size(env.get(ENV_SIZE)), _seconds(env.get(ENV_MIN)),
-                    off in ("", "0", "false", "no", "off"))
+    return text in ("1", "true", "yes", "on")
 
 
 def _size(text):
@@ -100,8 +104,8 @@ def compiled(scene, shadows=True, texture_filter=None, enabled=True) -> tuple[Co
     or "off" (``enabled`` False or TEXRAY_NO_CACHE); ``scene_cache_hash_s``,
     ``scene_cache_load_s`` and ``scene_cache_store_s`` time the cache's own work."""
     stats = off_stats()
-    conf = settings()
-    if not (enabled and conf.enabled and isinstance(scene, Scene)):
+    conf = settings() if enabled and not _off(os.environ) else None     # off: no other setting is read
+    if conf is None or not conf.enabled or not isinstance(scene, Scene):
         return compile_scene(scene, shadows=shadows, texture_filter=texture_filter), stats
     t0 = time.perf_counter()
     try:
