@@ -64,6 +64,9 @@ def test_a_hit_is_the_compiled_scene_that_was_stored(cache_env):
     assert_same_compiled(hit, cs, timed=True)
     assert_same_compiled(hit, ref)
     assert not hit.tri_verts.flags.writeable            # views of the file's mapping, not copies
+    same = rich_scene()                                  # one scene rendered twice in one process
+    assert cache.compiled(same)[1]["scene_cache"] == "hit"
+    assert cache.compiled(same)[1]["scene_cache"] == "hit"
 
 
 def test_a_hit_takes_the_scenes_current_camera_and_checks_it(cache_env):
