@@ -169,7 +169,8 @@ def _other_format(p):
 
 
 BAD = {"truncated": _truncate, "empty": lambda p: p.write_bytes(b""), "garbage": lambda p: p.write_bytes(b"x" * 5000),
-       "bvh bit": _flip_array("nodes"), "texel bit": _flip_array("texels"), "header bit": _flip(40), "other format": _other_format}
+       "bvh bit": _flip_array("nodes"), "texel bit": _flip_array("texels"), "header bit": _flip(40),
+       "other format": _other_format}
 
 
 @pytest.mark.parametrize("damage", BAD)
