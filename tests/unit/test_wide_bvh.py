@@ -11,7 +11,7 @@ from texray.accel.bvh import build
 from texray.device.layout import BVH4_NODE, PRIM_QUAD, PRIM_SPHERE, PRIM_TRIANGLE
 from texray.accel.wide import collapse
 
-from test_bvh_build import clustered_soup, flat_grid, node_depths, random_soup
+from bvh_checks import clustered_soup, flat_grid, node_depths, random_soup
 
 
 def _lanes(wide, i):

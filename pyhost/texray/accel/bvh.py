@@ -112,7 +112,7 @@ def build(bmin, bmax, *, max_leaf=4, bins=16, kind=PRIM_TRIANGLE, t_trav=1.0,
     Raises ValueError for bad shapes, NaN/inf bounds, bmin > bmax, or bad settings.
     """
     t0 = time.perf_counter()
-    lo, hi = _check_boxes(bmin, bmax)
+    lo, hi = check_boxes(bmin, bmax)
     sah_leaf_max = max_leaf if sah_leaf_max is None else sah_leaf_max
     _check_settings(max_leaf, bins, kind, t_trav, t_isect, sah_leaf_max)
     n = len(lo)
@@ -157,7 +157,7 @@ def sah_cost(nodes, t_trav=1.0, t_isect=1.0) -> float:
 
 # --- input checks -----------------------------------------------------------
 
-def _check_boxes(bmin, bmax):
+def check_boxes(bmin, bmax):
     """Validate the box arrays; return them as (n, 3) float32, rounded outward."""
     lo, hi = np.asarray(bmin), np.asarray(bmax)
     for name, a in (("bmin", lo), ("bmax", hi)):

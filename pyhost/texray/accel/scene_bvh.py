@@ -12,8 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import bvh
+from . import bvh, cells
 from ..device.layout import BVH_NODE
+
+BUILDERS = ("auto", "numpy", "cells")
 
 
 @dataclass
@@ -31,9 +33,22 @@ def triangle_bounds(tri_verts):
     return np.minimum(np.minimum(p0, p1), p2), np.maximum(np.maximum(p0, p1), p2)
 
 
-def build_scene_bvh(boxes: dict) -> SceneBVH:
-    """boxes: kind -> (lo, hi) float32 (n, 3) primitive bounds; kinds with n == 0 are left out."""
-    subs = {k: bvh.build(lo, hi, kind=k) for k, (lo, hi) in boxes.items() if len(lo)}
+def build_kind(lo, hi, kind, builder="auto") -> bvh.BVH:
+    """One kind's tree: the numpy builder (texray.accel.bvh), or the cell builder
+    (texray.accel.cells: Morton cells built on PoCL's CPU device, 6-8x faster on a
+    million triangles, SAH cost within a few percent); "auto" takes the cells from
+    cells.MIN_PRIMS primitives on."""
+    if builder == "cells" or (builder == "auto" and len(lo) >= cells.MIN_PRIMS):
+        return cells.build(lo, hi, kind=kind)
+    return bvh.build(lo, hi, kind=kind)
+
+
+def build_scene_bvh(boxes: dict, builder="auto") -> SceneBVH:
+    """boxes: kind -> (lo, hi) float32 (n, 3) primitive bounds; kinds with n == 0 are left out.
+    builder: one of BUILDERS (:func:`build_kind`)."""
+    if builder not in BUILDERS:
+        raise ValueError(f"BVH builder: expected one of {', '.join(BUILDERS)}, got {builder!r}")
+    subs = {k: build_kind(lo, hi, k, builder) for k, (lo, hi) in boxes.items() if len(lo)}
     seconds = sum(s.build_seconds for s in subs.values())
     if not subs:
         return SceneBVH(np.zeros(0, BVH_NODE), {}, 0.0, 0, seconds)

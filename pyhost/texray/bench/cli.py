@@ -116,9 +116,10 @@ def main(argv=None):
         mesh_scene = bench_mesh_scene(args.triangles)
         cs_mesh, results["bvh"] = bench_bvh(mesh_scene, max(1, min(args.repeat, 3)))
         b = results["bvh"]
-        out.write(f"BVH: {b['triangles']} triangles in {b['build_s']['median']:.2f} s "
+        out.write(f"BVH ({b['builder']} builder): {b['triangles']} triangles in {b['build_s']['median']:.2f} s "
                   f"({b['build_s']['min']:.2f}-{b['build_s']['max']:.2f}), SAH cost {b['sah_cost']:.2f}, "
-                  f"{b['nodes']} nodes, depth {b['depth']}\n")
+                  f"{b['nodes']} nodes, depth {b['depth']}; numpy builder {b['numpy_build_s']['median']:.2f} s, "
+                  f"SAH cost {b['numpy_sah_cost']:.2f}\n")
     if paths:
         all_scenes = sorted(scenes_dir().rglob("*.toml"))
         results["variants"] = program_variants(all_scenes)

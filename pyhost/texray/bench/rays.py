@@ -10,8 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import procedural
-from ..accel import bvh
-from ..accel.scene_bvh import triangle_bounds
+from ..accel import cells
+from ..accel.scene_bvh import build_kind, triangle_bounds
 from ..compile import compile_scene
 from ..renderer.trace import Tracer
 from ..scene import Camera, Mesh, PointLight, Scene
@@ -28,18 +28,24 @@ def bench_mesh_scene(triangles):
 
 
 def bench_bvh(scene, repeat):
-    """(compiled scene, BVH figures): the scene's compile time and the SAH build of its triangles."""
+    """(compiled scene, BVH figures): the scene's compile time and the build of its triangles'
+    tree by the builder compile_scene takes (texray.accel.scene_bvh.build_kind: the cell
+    builder at this size), with the numpy builder's time and SAH cost beside it."""
     t0 = time.perf_counter()
     cs = compile_scene(scene)
     compile_s = time.perf_counter() - t0
     lo, hi = triangle_bounds(cs.tri_verts)
-    times, tree = [], None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        tree = bvh.build(lo, hi)
-        times.append(time.perf_counter() - t0)
-    return cs, {"triangles": int(len(lo)), "build_s": median_spread(times), "sah_cost": tree.sah_cost,
-                "nodes": int(len(tree.nodes)), "depth": tree.depth, "scene_compile_s": compile_s}
+    figures = {"triangles": int(len(lo)), "scene_compile_s": compile_s}
+    for name, builder in (("", "auto"), ("numpy_", "numpy")):
+        times, tree = [], None
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            tree = build_kind(lo, hi, 0, builder)
+            times.append(time.perf_counter() - t0)
+        figures.update({f"{name}build_s": median_spread(times), f"{name}sah_cost": tree.sah_cost,
+                        f"{name}nodes": int(len(tree.nodes)), f"{name}depth": tree.depth})
+    figures["builder"] = "cells" if len(lo) >= cells.MIN_PRIMS else "numpy"
+    return cs, figures
 
 
 @dataclass

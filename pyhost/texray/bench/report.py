@@ -136,8 +136,10 @@ def markdown(results, plot_path=None) -> str:
           f"`texray bench {' '.join(r['argv'])}`; medians of {r['repeat']} runs after a warm-up, (min-max).", ""]
     if "bvh" in r:
         b = r["bvh"]
-        md += [f"BVH build (host, numpy): {b['triangles']} triangles in {b['build_s']['median']:.2f} s, "
-               f"SAH cost {b['sah_cost']:.2f}, depth {b['depth']}.", ""]
+        md += [f"BVH build (host, {b.get('builder', 'numpy')} builder): {b['triangles']} triangles in "
+               f"{b['build_s']['median']:.2f} s, SAH cost {b['sah_cost']:.2f}, depth {b['depth']}"
+               + (f"; numpy builder {b['numpy_build_s']['median']:.2f} s, SAH cost {b['numpy_sah_cost']:.2f}"
+                  if "numpy_build_s" in b else "") + ".", ""]
     if r.get("variants") is not None:
         md += [f"Rendering every scene in `scenes/` builds {len(r['variants'])} program variants.", ""]
     for name, dev in r["devices"].items():

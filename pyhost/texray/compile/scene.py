@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..accel import wide
-from ..accel.scene_bvh import SceneBVH, build_scene_bvh
+from ..accel.scene_bvh import BUILDERS, SceneBVH, build_scene_bvh
 from ..device import buffers, layout
 from ..device.features import Features, max_lights_for, stack_size_for
 from ..errors import SceneError
@@ -144,9 +144,12 @@ def _sorted_objects(scene):
     return by_kind, displaced
 
 
-def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> CompiledScene:
+def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_builder="auto") -> CompiledScene:
     """Flatten ``scene``; raises SceneError for anything that cannot be rendered.
-    ``texture_filter``: None, or a filter name that replaces every texture's own."""
+    ``texture_filter``: None, or a filter name that replaces every texture's own.
+    ``bvh_builder``: "auto" (the cell builder for kinds of at least
+    texray.accel.cells.MIN_PRIMS primitives, else numpy), "numpy" or "cells"
+    (texray.accel.scene_bvh.build_kind)."""
     if not isinstance(scene, Scene):
         raise SceneError(f"render: expected a texray.Scene, got {type(scene).__name__}")
     ambient, background = scene.validate()
@@ -168,7 +171,9 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None) -> Co
         arrays.update(recs)
     disp, heights, boxes[layout.PRIM_DISPLACED] = _displaced(displaced, mats)
 
-    tree = build_scene_bvh(boxes)
+    if bvh_builder not in BUILDERS:
+        raise SceneError(f"compile_scene: bvh_builder: expected one of {', '.join(BUILDERS)}, got {bvh_builder!r}")
+    tree = build_scene_bvh(boxes, bvh_builder)
     order = tree.orders
     wide_nodes, wide_depth = wide.collapse(tree.nodes)
     for cls, names in _KINDS:
