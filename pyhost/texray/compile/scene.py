@@ -87,14 +87,20 @@ def _records(cls, items, mats, any_normals, any_uvs):
             parts[k].append(a)
         los.append(np.atleast_2d(rec.lo))
         his.append(np.atleast_2d(rec.hi))
-    out = {n: np.concatenate(parts[n]) if parts[n] else np.zeros(0, _DTYPES[n]) for n in names}
+    out = {n: _joined(parts[n]) if parts[n] else np.zeros(0, _DTYPES[n]) for n in names}
     for n in ("normals", "uvs"):
         if parts.get(n):
-            out[n] = np.concatenate(parts[n]).astype(np.float32).ravel()
+            out[n] = _joined(parts[n]).astype(np.float32).ravel()
     if not los:
         return out, (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32))
-    lo, hi = np.concatenate(los), np.concatenate(his)
+    lo, hi = _joined(los), _joined(his)
     return out, ((lo, hi) if lo.dtype == np.float32 else outward(lo, hi))   # float32 boxes are exact
+
+
+def _joined(arrays):
+    """np.concatenate, without the copy of a single array (one mesh: 100 MiB saved per
+    million triangles)."""
+    return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
 
 
 def _displaced(items, mats):
