@@ -1,7 +1,8 @@
 #line 2 "accel/build.cl"
 /* The BVH build's sequential part, one work-item per cell (texray.accel.cells): a
  * binned-SAH tree over a cell's primitives, the same rule as the numpy builder
- * (texray.accel.bvh: 16 bins on each axis over the node's centroid range, plane cost
+ * (texray.accel.bvh: 16 bins on each axis over the node's centroid range, max(4, count / 2)
+ * for nodes of fewer than 32 primitives (the numpy builder decides that per level), plane cost
  * nL A(L) + nR A(R) with A the half surface area, a leaf at <= max_leaf primitives, a
  * split by count where no plane separates the centroids).
  *
@@ -103,11 +104,15 @@ __kernel void bvh_build_cells(__global const float* box, __global uint* index, _
         }
         /* binned SAH over the three axes, one pass; centroids as lo/2 + hi/2 (no overflow near FLT_MAX), the
          * same expression everywhere so that a primitive's bin is the same in both passes */
+        /* fewer bins for small nodes, as the numpy builder does (max(4, count / 2)): the
+         * sweeps' cost is per bin, and most nodes are small */
+        int nbins = (int)(count / 2u);
+        nbins = nbins < 4 ? 4 : (nbins > TX_BUILD_BINS ? TX_BUILD_BINS : nbins);
         float ext = 0.0f, scale[3];
         for (int a = 0; a < 3; ++a) {
             float d = 0.5f * nb.hi[a] - 0.5f * nb.lo[a], dc = cb.hi[a] - cb.lo[a];   /* halves: finite */
             ext = d > ext ? d : ext;
-            scale[a] = dc > 0.0f && dc <= FLT_MAX ? (float)TX_BUILD_BINS / dc : 0.0f;
+            scale[a] = dc > 0.0f && dc <= FLT_MAX ? (float)nbins / dc : 0.0f;
         }
         float inv = ext > 0.0f ? 1.0f / ext : 1.0f;
         int best_axis = -1, best_split = 0;
@@ -116,13 +121,13 @@ __kernel void bvh_build_cells(__global const float* box, __global uint* index, _
             uint bin_n[3][TX_BUILD_BINS];
             BuildBox bin_box[3][TX_BUILD_BINS];
             for (int a = 0; a < 3; ++a)
-                for (int i = 0; i < TX_BUILD_BINS; ++i) { bin_n[a][i] = 0u; build_box_empty(&bin_box[a][i]); }
+                for (int i = 0; i < nbins; ++i) { bin_n[a][i] = 0u; build_box_empty(&bin_box[a][i]); }
             for (uint k = b; k < e; ++k) {
                 float plo[3], phi[3];
                 build_load(box, index[k], plo, phi);
                 for (int a = 0; a < 3; ++a) {
                     int i = (int)(((0.5f * plo[a] + 0.5f * phi[a]) - cb.lo[a]) * scale[a]);
-                    i = i < 0 ? 0 : (i > TX_BUILD_BINS - 1 ? TX_BUILD_BINS - 1 : i);
+                    i = i < 0 ? 0 : (i > nbins - 1 ? nbins - 1 : i);
                     bin_n[a][i] += 1u;
                     build_box_grow(&bin_box[a][i], plo, phi);
                 }
@@ -135,7 +140,7 @@ __kernel void bvh_build_cells(__global const float* box, __global uint* index, _
                 BuildBox acc;
                 build_box_empty(&acc);
                 uint accn = 0u;
-                for (int i = TX_BUILD_BINS - 1; i > 0; --i) {
+                for (int i = nbins - 1; i > 0; --i) {
                     build_box_merge(&acc, &bin_box[a][i]);
                     accn += bin_n[a][i];
                     right_a[i] = build_half_area(&acc, inv);
@@ -143,7 +148,7 @@ __kernel void bvh_build_cells(__global const float* box, __global uint* index, _
                 }
                 build_box_empty(&acc);
                 accn = 0u;
-                for (int i = 1; i < TX_BUILD_BINS; ++i) {
+                for (int i = 1; i < nbins; ++i) {
                     build_box_merge(&acc, &bin_box[a][i - 1]);
                     accn += bin_n[a][i - 1];
                     if (accn == 0u || right_n[i] == 0u) continue;
@@ -166,7 +171,7 @@ __kernel void bvh_build_cells(__global const float* box, __global uint* index, _
                 build_load(box, index[i], plo, phi);
                 cc[0] = 0.5f * plo[0] + 0.5f * phi[0]; cc[1] = 0.5f * plo[1] + 0.5f * phi[1]; cc[2] = 0.5f * plo[2] + 0.5f * phi[2];
                 int bi = (int)((cc[best_axis] - lo) * sc);
-                bi = bi < 0 ? 0 : (bi > TX_BUILD_BINS - 1 ? TX_BUILD_BINS - 1 : bi);
+                bi = bi < 0 ? 0 : (bi > nbins - 1 ? nbins - 1 : bi);
                 if (bi < best_split) {
                     build_box_grow(&lb, plo, phi);
                     build_box_grow(&lc, cc, cc);
