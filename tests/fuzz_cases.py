@@ -2128,16 +2128,77 @@ def gen_scene_file(ch) -> Case:
     return Case("scene_file", L.text(), must_reject=reject)
 
 
+_GLTF_BASE = {}
+
+
+def _gltf_base(kind):
+    """A small valid glTF document (dict) with everything the reader reads: a node
+    hierarchy (TRS and matrix), two primitives with two materials (a base colour texture
+    with a sampler and KHR_texture_transform, a metallic-roughness texture, a normal map),
+    a camera, a point and a spot light; buffers and images as data: URIs."""
+    if kind not in _GLTF_BASE:
+        import importlib.util
+        spec = importlib.util.spec_from_file_location("gltf_writer", ROOT / "tools" / "gltf_writer.py")
+        gw = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(gw)
+        import json
+        import numpy as np
+        w = gw.GltfWriter()
+        w.use_extension("KHR_texture_transform")
+        p = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float64)
+        uv = gw.gltf_uvs([[0, 0], [1, 0], [1, 1], [0, 1]])
+        n = np.tile([0.0, 0.0, 1.0], (4, 1))
+        img = w.image(np.random.default_rng(1).random((4, 4, 3)), embed="data")
+        tex = w.texture(img, w.sampler(wrapS=33071, wrapT=10497, magFilter=9728))
+        m0 = w.material(pbrMetallicRoughness={"baseColorTexture": {"index": tex, "extensions": {
+            "KHR_texture_transform": {"offset": [0.1, 0.2], "rotation": 0.3, "scale": [2, 1]}}},
+            "baseColorFactor": [0.8, 0.7, 0.6, 1], "metallicFactor": 0.2, "roughnessFactor": 0.5})
+        m1 = w.material(pbrMetallicRoughness={"metallicRoughnessTexture": {"index": w.texture(img)}},
+                        normalTexture={"index": w.texture(img), "scale": 0.7})
+        prims = [w.primitive(p, np.array([[0, 1, 2]]), uvs=uv, normals=n, material=m0),
+                 w.primitive(p, np.array([[0, 2, 3]]), uvs=uv, normals=n, material=m1)]
+        mesh = w.node(mesh=w.mesh(prims, name="quad"), translation=[0.0, 0.0, -1.0], rotation=[0, 0.1, 0, 0.995])
+        group = w.node(children=[mesh], matrix=np.diag([1.5, 1.5, 1.5, 1.0]), name="group")
+        cam = w.node(camera=w.camera(0.8, aspect_ratio=1.5), translation=[0.0, 0.0, 4.0], name="cam")
+        lamp = w.node(translation=[1.0, 1.0, 3.0],
+                      extensions={"KHR_lights_punctual": {"light": w.light("point", (1, 0.9, 0.8), 20.0)}})
+        spot = w.node(translation=[-1.0, 1.0, 3.0], extensions={"KHR_lights_punctual": {"light": w.light(
+            "spot", (1, 1, 1), 5.0, spot={"innerConeAngle": 0.2, "outerConeAngle": 0.5})}})
+        w.scene([group, cam, lamp, spot])
+        with tempfile.TemporaryDirectory() as d:
+            path = w.write(Path(d) / "base.gltf", buffer="data")
+            _GLTF_BASE[kind] = json.loads(Path(path).read_text())
+    return copy.deepcopy(_GLTF_BASE[kind])
+
+
+def gen_gltf_file(ch) -> Case:
+    """A mutated small glTF file through tx.Scene.load + render, or tx.Mesh.load: every
+    outcome is a render with finite pixels or a SceneError naming the file."""
+    import json
+    L = _Lines()
+    doc = _gltf_base("quad")
+    muts = [_mutate(ch, doc, L, i) for i in range(ch.integer(1, 4))]
+    L.lines.insert(0, f"# mutations: {'; '.join(muts)}")
+    L.add(f"PATH = write_text('scene.gltf', {_text_literal(json.dumps(doc))})")
+    if ch.boolean(0.7):
+        L.add("scene = load_scene(PATH)")
+    else:
+        L.add("scene = tx.Scene(lights=[tx.PointLight((1, 2, 5))])")
+        L.add("scene.add(tx.Mesh.load(PATH))")
+    L.add(f"RESULT = render_settings(scene, specialize={weighted(ch, [(3, False), (1, True)])})")
+    return Case("gltf_file", L.text())
+
+
 # =============================================================================
 # Entry points
 # =============================================================================
 
 FAMILIES = {"scene_file": gen_scene_file, "geometry": gen_geometry, "texture": gen_texture,
             "render_args": gen_render_args, "random_scene": gen_random_scene, "extreme_scene": gen_extreme_scene,
-            "post_edit": gen_post_edit}
+            "post_edit": gen_post_edit, "gltf_file": gen_gltf_file}
 # How often each family is drawn by generate() (campaigns).
 FAMILY_WEIGHTS = [(3, "scene_file"), (2, "geometry"), (2, "texture"), (1, "render_args"), (2, "random_scene"),
-                  (2, "extreme_scene"), (1, "post_edit")]
+                  (2, "extreme_scene"), (1, "post_edit"), (1, "gltf_file")]
 
 
 def generate(ch, family=None) -> Case:

@@ -94,6 +94,14 @@ def test_scene_files(worker, data):
     check(worker, fc.gen_scene_file(fc.HypothesisChooser(data)))
 
 
+@_settings(150)
+@given(st.data())
+def test_gltf_files(worker, data):
+    """Mutated glTF files (JSON fields, accessors, buffers, images, nodes, materials,
+    cameras, lights) through Scene.load / Mesh.load + render."""
+    check(worker, fc.gen_gltf_file(fc.HypothesisChooser(data)))
+
+
 @_settings(1000)
 @given(st.data())
 def test_geometry_camera_lights(worker, data):

@@ -698,6 +698,9 @@ ERRORS = [
      r"samplers\[0\]\.wrapS: 1234 is not a glTF wrapS"),
     ("zero scale", lambda w, d: d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"].update(
         extensions={"KHR_texture_transform": {"scale": [0, 1]}}), r"KHR_texture_transform\.scale: \[0\.0, 1\.0\]"),
+    ("huge offset (fuzz)", lambda w, d: d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"].update(
+        extensions={"KHR_texture_transform": {"offset": [0.1, 1e39]}}),
+     r"baseColorTexture\.extensions\.KHR_texture_transform: offset \[0\.1, 1e\+39\].*uv_transform\.offset"),
     ("metallic", lambda w, d: d["materials"][0]["pbrMetallicRoughness"].update(metallicFactor=1.5),
      r"materials\[0\]\.pbrMetallicRoughness\.metallicFactor: 1\.5 is outside \[0, 1\]"),
     ("no uvs", lambda w, d: d["meshes"][0]["primitives"][0]["attributes"].pop("TEXCOORD_0"),

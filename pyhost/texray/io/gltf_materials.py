@@ -301,7 +301,11 @@ class MaterialBuilder:
                 raise doc.error(f"{xw}.scale", f"{V.show(scale)}: a zero scale maps the whole surface to one "
                                 "line of the texture")
             if np.any(offset != 0) or rotation != 0 or np.any(scale != 1):
-                uvt = uv_transform_from_gltf(offset, rotation, scale)
+                try:
+                    uvt = uv_transform_from_gltf(offset, rotation, scale)
+                except SceneError as e:          # e.g. an offset beyond float32: name the file and field
+                    raise doc.error(xw, f"offset {V.show(offset)}, rotation {rotation!r}, scale {V.show(scale)}: "
+                                    f"{e}") from None
         if tex_coord != 0:
             self.notes.add("texray reads TEXCOORD_0 only: textures of other sets use TEXCOORD_0",
                            f"texCoord {tex_coord}", f"{who} {jpath.split('.')[-1]}")
@@ -319,9 +323,16 @@ class MaterialBuilder:
 
     # --- materials ---
     def material(self, index):
-        """The texray Material of materials[index] (None: glTF's default material)."""
+        """The texray Material of materials[index] (None: glTF's default material). Every
+        SceneError names the file (texray's own checks of a texture, transform or material
+        don't know it)."""
         if index not in self._materials:
-            self._materials[index] = self._build(index)
+            try:
+                self._materials[index] = self._build(index)
+            except SceneError as e:
+                if str(e).startswith(self.doc.label):
+                    raise
+                raise self.doc.error(f"materials[{index}]", str(e)) from None
         return self._materials[index]
 
     def _build(self, index):
