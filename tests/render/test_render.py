@@ -75,3 +75,13 @@ def test_no_light_leaks_into_a_closed_box(device):
     scene.add(tx.Mesh(bp, bf, name="box"))
     img = tx.render(scene, 64, 64, spp=4, device=device)
     assert img.rgb.max() == 0.0
+
+
+def test_stats_time_each_compile_step(device, scenes_dir):
+    scene = tx.Scene.load(scenes_dir / "showcase.toml")
+    s = tx.render(scene, 16, 12, 1, device=device, cache=False).stats
+    steps = s["compile_steps_s"]
+    assert set(steps) == {"validate", "tessellate", "records", "heights", "bvh", "wide", "leaf_order", "textures",
+                          "tables"}
+    assert all(v >= 0 for v in steps.values())
+    assert sum(steps.values()) <= s["scene_compile_s"] and steps["bvh"] >= s["bvh_build_s"] * 0.9

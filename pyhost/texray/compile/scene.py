@@ -8,6 +8,7 @@ is produced."""
 from __future__ import annotations
 
 import copy
+import time
 import warnings
 from dataclasses import dataclass
 
@@ -57,6 +58,7 @@ class CompiledScene:
     camera: Camera | None = None          # the scene's camera when compiled
     objects_generic: np.ndarray | None = None   # layout.OBJECT for every object: what the generic program reads
     texture_names: tuple = ()             # the textures' names, for error messages
+    steps_s: dict | None = None           # seconds of each step of compile_scene (image.stats["compile_steps_s"])
 
     def device_bytes(self) -> dict[str, int]:
         """Bytes each uploaded array takes on the device (absent or empty arrays are not uploaded)."""
@@ -158,6 +160,13 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
     (texray.accel.scene_bvh.build_kind)."""
     if not isinstance(scene, Scene):
         raise SceneError(f"render: expected a texray.Scene, got {type(scene).__name__}")
+    steps, t_last = {}, [time.perf_counter()]
+
+    def step(name):
+        now = time.perf_counter()
+        steps[name] = steps.get(name, 0.0) + now - t_last[0]
+        t_last[0] = now
+
     ambient, background = scene.validate()
     if not scene.lights and scene.objects and not np.any(ambient > 0):
         warnings.warn("scene: no lights and no ambient light: every object renders black", stacklevel=3)
@@ -166,7 +175,9 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
                          f"got {texture_filter!r}")
     for obj in scene.objects:              # fields may have changed since the objects were made
         obj.validate()
+    step("validate")
     by_kind, displaced = _sorted_objects(scene)
+    step("tessellate")
     mats = MaterialTable(texture_filter)
     meshes = by_kind[Mesh]
     any_normals = any(m.normals is not None for _, m in meshes)
@@ -175,22 +186,28 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
     for cls, _ in _KINDS:
         recs, boxes[cls.PRIM] = _records(cls, by_kind[cls], mats, any_normals, any_uvs)
         arrays.update(recs)
+    step("records")
     disp, heights, boxes[layout.PRIM_DISPLACED] = _displaced(displaced, mats)
+    step("heights")
 
     if bvh_builder not in BUILDERS:
         raise SceneError(f"compile_scene: bvh_builder: expected one of {', '.join(BUILDERS)}, got {bvh_builder!r}")
     tree = build_scene_bvh(boxes, bvh_builder)
+    step("bvh")
     order = tree.orders
     wide_nodes, wide_depth = wide.collapse(tree.nodes)
+    step("wide")
     for cls, names in _KINDS:
         if cls.PRIM in order:
             for n in names:
                 arrays[n] = arrays[n][order[cls.PRIM]]
     if layout.PRIM_DISPLACED in order:
         disp = disp[order[layout.PRIM_DISPLACED]]
+    step("leaf_order")
 
     materials, any_specular = mats.table()
     tex_table, texels = pack_textures(mats.entries) if mats.entries else (None, None)
+    step("textures")
     filters = {t.filter for t, _ in mats.entries}
     slots = {slot for m in mats.materials for slot, _, _ in m.texture_roles()}
     lights = np.zeros(len(scene.lights), layout.POINT_LIGHT)
@@ -211,12 +228,15 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
                         displacement=len(disp) > 0,
                         stack_size=stack_size_for(wide.stack_depth(wide_depth)),
                         max_lights=max_lights_for(len(scene.lights)))
+    objects, objects_generic = object_table(scene.objects), object_table(scene.objects, always=True)
+    step("tables")
     return CompiledScene(
         **{n: arrays[n] for n in _DTYPES}, nodes=wide_nodes, normals=arrays.get("normals"), uvs=arrays.get("uvs"),
-        materials=materials, textures=tex_table, texels=texels, objects=object_table(scene.objects),
+        materials=materials, textures=tex_table, texels=texels, objects=objects,
         lights=lights, ambient=np.append(ambient, 0).astype(np.float32),
         background=np.append(background, 0).astype(np.float32),
         features=features, bvh=tree, displaced=disp if len(disp) else None, heights=heights,
         wide_depth=wide_depth, camera=copy.deepcopy(scene.camera),
-        objects_generic=object_table(scene.objects, always=True),
-        texture_names=tuple(sorted({t.name for o in scene.objects for m in materials_of(o) for t in m.textures})))
+        objects_generic=objects_generic,
+        texture_names=tuple(sorted({t.name for o in scene.objects for m in materials_of(o) for t in m.textures})),
+        steps_s=steps)
