@@ -184,3 +184,17 @@ def test_code_changes_change_the_key(tmp_path, monkeypatch):
     assert k2 != k
     (copy / "__init__.py").write_text((copy / "__init__.py").read_text().replace('__version__ = "', '__version__ = "9'))
     assert fresh_key() not in (k, k2)
+    # the cell builder's kernel makes scene data: fingerprinted; the data packages a wheel
+    # holds inside texray/ (kernels/, scenes/) are not host code
+    k3 = fresh_key()
+    kernels = tmp_path / "kernels"
+    shutil.copytree(scene_hash.KERNEL_DIR, kernels, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(scene_hash, "KERNEL_DIR", kernels)
+    assert fresh_key() == k3
+    (kernels / "accel" / "build.cl").write_text((kernels / "accel" / "build.cl").read_text() + "\n/* changed */\n")
+    assert fresh_key() != k3
+    (copy / "scenes").mkdir()
+    (copy / "scenes" / "__init__.py").write_text("# data\n")
+    k4 = fresh_key()
+    (copy / "scenes" / "__init__.py").write_text("# other data\n")
+    assert fresh_key() == k4

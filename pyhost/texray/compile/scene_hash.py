@@ -31,12 +31,19 @@ from pathlib import Path, PurePath
 
 import numpy as np
 
+from ..device.opencl import KERNEL_DIR
+
 PACKAGE = "texray"
 ROOT = Path(__file__).resolve().parents[1]        # the package's folder
 # The subpackages and modules that run after a scene is compiled: the import graph has
 # no cycles and each of them imports texray.compile (or imports what does), so no code
 # of the compiler can be in them. Every other module of the package is fingerprinted.
 AFTER_COMPILE = ("renderer", "bench", "cli.py")
+# Data packages an installed wheel holds inside texray/ (the source tree keeps them beside
+# pyhost/): not host code, and where they sit must not change the key.
+DATA_PACKAGES = ("kernels", "scenes")
+# Kernel sources whose output is compiled scene data (the cell BVH builder's tree).
+COMPILE_KERNELS = ("accel/build.cl",)
 # The scene fields a compiled scene does not depend on.
 LEFT_OUT = {"texray.scene.scene.Scene": ("camera",)}
 
@@ -48,9 +55,10 @@ class Uncacheable(Exception):
 
 
 def code_fingerprint() -> bytes:
-    """sha256 of numpy's and Python's versions and the source of every module of texray
-    that can take part in compiling a scene (texray/__init__.py, with ``__version__``,
-    among them); computed once per process."""
+    """sha256 of numpy's and Python's versions, the source of every module of texray that
+    can take part in compiling a scene (texray/__init__.py, with ``__version__``, among
+    them) and of the kernels whose output is scene data (COMPILE_KERNELS); the same for a
+    source tree and an installed wheel of the same code. Computed once per process."""
     global _code
     if _code is None:
         h = hashlib.sha256()
@@ -58,10 +66,13 @@ def code_fingerprint() -> bytes:
             _token(h, b"v", part.encode())
         for path in sorted(ROOT.rglob("*.py")):
             rel = path.relative_to(ROOT)
-            if rel.parts[0] in AFTER_COMPILE:
+            if rel.parts[0] in AFTER_COMPILE or rel.parts[0] in DATA_PACKAGES:
                 continue
             _token(h, b"p", rel.as_posix().encode())
             _token(h, b"c", path.read_bytes())
+        for name in COMPILE_KERNELS:
+            _token(h, b"k", name.encode())
+            _token(h, b"c", (KERNEL_DIR / name).read_bytes())
         _code = h.digest()
     return _code
 
