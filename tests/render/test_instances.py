@@ -173,3 +173,64 @@ def test_bad_mesh_and_changed_fields():
     inst.transform = np.zeros((4, 4))
     with pytest.raises(tx.SceneError, match="pillar: transform"):
         compile_scene(scene)
+
+
+_SCENE_FILE = """
+[camera]
+eye = [0, 1.5, 5]
+look_at = [0, 0, 0]
+fov_y = 40
+[scene]
+background = [0.2, 0.2, 0.3]
+[[lights]]
+position = [3, 4, 5]
+intensity = [30, 30, 30]
+[materials.clay]
+diffuse = [0.8, 0.4, 0.3]
+[[objects]]
+type = "procedural"
+generator = "torus"
+params = { n_major = 24, n_minor = 12 }
+material = "clay"
+name = "ring"
+hidden = HIDDEN
+[[objects]]
+type = "instance"
+of = "ring"
+translate = [-1, 0, 0]
+[[objects]]
+type = "instance"
+of = "ring"
+translate = [1, 0, 0]
+rotate = [90, 0, 0]
+scale = [0.5, 1, 0.5]
+"""
+
+
+def test_scene_file_instances(tmp_path, device):
+    path = tmp_path / "inst.toml"
+    path.write_text(_SCENE_FILE.replace("HIDDEN", "true"))
+    scene = tx.load_scene(path)
+    assert [type(o).__name__ for o in scene.objects] == ["Instance", "Instance"]
+    assert scene.objects[0].mesh is scene.objects[1].mesh
+    img = tx.render(scene, 32, 24, spp=1, device=device, cache=False)
+    assert img.stats["features"].instances and np.mean(img.rgb[..., 0] != np.float32(0.2)) > 0.05
+    path.write_text(_SCENE_FILE.replace("HIDDEN", "false"))
+    assert len(tx.load_scene(path).objects) == 3          # the mesh itself too
+    bad = _SCENE_FILE.replace("HIDDEN", "true").replace('of = "ring"\ntranslate = [1', 'of = "rung"\ntranslate = [1')
+    path.write_text(bad)
+    with pytest.raises(tx.SceneError, match=r"objects\[2\].of: no earlier mesh object named 'rung'"):
+        tx.load_scene(path)
+    path.write_text(_SCENE_FILE.replace("HIDDEN", "true").replace('of = "ring"\ntranslate = [-1',
+                                                                    'of = "ring"\nmaterial = "clay"\ntranslate = [-1'))
+    with pytest.raises(tx.SceneError, match=r"objects\[1\].material: an instance has its mesh's material"):
+        tx.load_scene(path)
+
+
+def test_cache_key_follows_instances():
+    from texray.compile.scene_hash import scene_key
+    a, _ = _pair()
+    k = scene_key(a)
+    a.objects[1].transform = a.objects[1].transform.copy()
+    a.objects[1].transform[0, 3] += 1e-6
+    assert scene_key(a) != k

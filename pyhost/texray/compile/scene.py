@@ -169,8 +169,13 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
     if texture_filter is not None and (not isinstance(texture_filter, str) or texture_filter not in FILTERS):
         raise SceneError(f"render: texture_filter: expected None or one of {', '.join(FILTERS)}, "
                          f"got {texture_filter!r}")
+    meshes_checked = set()
     for obj in scene.objects:              # fields may have changed since the objects were made
-        obj.validate()
+        if isinstance(obj, Instance):      # a shared mesh once
+            obj.validate(check_mesh=id(obj.mesh) not in meshes_checked)
+            meshes_checked.add(id(obj.mesh))
+        else:
+            obj.validate()
     by_kind, displaced = _sorted_objects(scene)
     mats = MaterialTable(texture_filter)
     meshes = by_kind[Mesh] + [(i, o.mesh) for i, o in by_kind[Instance]]

@@ -20,5 +20,5 @@ from .sphere import Sphere
 from .texture import Label, Texture
 from .transform import Transform
 
-__all__ = ["Bump", "Camera", "Cylinder", "Displacement", "Instance", "Label", "Material", "Mesh", "NormalMap", "PointLight",
-           "Projection", "Quad", "SHAPES", "Scene", "Sphere", "Texture", "Transform", "UVTransform"]
+__all__ = ["Bump", "Camera", "Cylinder", "Displacement", "Instance", "Label", "Material", "Mesh", "NormalMap",
+           "PointLight", "Projection", "Quad", "SHAPES", "Scene", "Sphere", "Texture", "Transform", "UVTransform"]

@@ -31,7 +31,7 @@ class Instance:
     PRIM = layout.PRIM_INSTANCE
 
     def __post_init__(self):
-        self.validate()
+        self.validate(check_mesh=False)       # a Mesh is validated when made
 
     # The object's fields the compiler reads of every shape.
     @property
@@ -46,12 +46,15 @@ class Instance:
     def materials(self):
         return self.mesh.materials
 
-    def validate(self):
+    def validate(self, check_mesh=True):
+        """Check every field again; ``check_mesh=False`` skips the mesh's own fields (the
+        compiler checks a mesh shared by many instances once)."""
         if not isinstance(self.name, str):
             raise SceneError(f"instance: name: expected a string, got {V.show(self.name)}")
         where = f"{self.name}: "
         V.instance(self.mesh, Mesh, "mesh", where, "a texray.Mesh")
-        self.mesh.validate()
+        if check_mesh:
+            self.mesh.validate()
         self.matrix()
         return self
 
