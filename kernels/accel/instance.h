@@ -42,9 +42,10 @@ inline float3 xf_abs_vector(__global const float* m, float3 v)
 /* The BLAS from wide node `root` against the object-space ray, t in (tmin, h->t); a
  * nearer hit updates h (prim = PRIM_INSTANCE << HIT_KIND_SHIFT | triangle, inst). With
  * `any` the first hit returns 1. Closest-first order as bvh_closest. */
-static int blas_traverse(TX_GEOM_PARAMS, uint root, uint inst, float3 org, float3 dir, float tmin, int any,
+static int blas_traverse(TX_GEOM_PARAMS, uint root, uint inst, float4 org4, float4 dir4, float tmin, int any,
                          HitRec* h)
 {
+    float3 org = org4.xyz, dir = dir4.xyz;     /* float4, not float3: core/common.h (out of line) */
     if (!ray_valid(org, dir, tmin, h->t)) return 0;
     WoopRay w = woop_setup(org, dir);
     float3 inv_d = (float3)(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z));
@@ -100,13 +101,14 @@ static int blas_traverse(TX_GEOM_PARAMS, uint root, uint inst, float3 org, float
 #undef TX_SORT2
 
 /* The instances [first, end) of a top-level leaf against the world ray (geometry/dispatch.h). */
-int instance_leaf(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, uint first, uint end, int any, HitRec* h)
+int instance_leaf(TX_GEOM_PARAMS, float4 org4, float4 dir4, float tmin, uint first, uint end, int any, HitRec* h)
 {
+    float3 org = org4.xyz, dir = dir4.xyz;     /* float4, not float3: core/common.h (out of line) */
     int found = 0;
     for (uint i = first; i < end; ++i) {
         __global const Instance* in = instances + i;
         float3 o = xf_point(in->w2o[0], org), d = xf_vector(in->w2o[0], dir);
-        if (blas_traverse(TX_GEOM_ARGS, in->root, i, o, d, tmin, any, h)) {
+        if (blas_traverse(TX_GEOM_ARGS, in->root, i, (float4)(o, 0.0f), (float4)(d, 0.0f), tmin, any, h)) {
             found = 1;
             if (any) return 1;
         }

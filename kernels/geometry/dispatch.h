@@ -28,8 +28,9 @@
 
 #if TX_INSTANCES
 /* An instance leaf (accel/instance.h, defined after the traversal's box test): declared
- * here, as leaf_hit calls it and it calls the triangle test. */
-int instance_leaf(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, uint first, uint end, int any, HitRec* h);
+ * here, as leaf_hit calls it and it calls the triangle test. Out of line, so float4 for
+ * the ray (core/common.h: Intel's CPU compiler misreads float3 arguments there). */
+int instance_leaf(TX_GEOM_PARAMS, float4 org, float4 dir, float tmin, uint first, uint end, int any, HitRec* h);
 void instance_geom(__global const Instance* in, Geom* g);
 #endif
 
@@ -110,7 +111,8 @@ inline int leaf_hit(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, fl
 #endif
 #if TX_INSTANCES
     else if (kind == PRIM_INSTANCE) {
-        if (instance_leaf(TX_GEOM_ARGS, org, dir, tmin, first, end, any, h) && any) return 1;
+        if (instance_leaf(TX_GEOM_ARGS, (float4)(org, 0.0f), (float4)(dir, 0.0f), tmin, first, end, any, h) && any)
+            return 1;
     }
 #endif
     return 0;
