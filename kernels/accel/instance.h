@@ -11,7 +11,8 @@
 #ifndef TEXRAY_INSTANCE_H
 #define TEXRAY_INSTANCE_H
 
-/* Row r of a 3x4 matrix stored as 12 floats. */
+/* Row r of a 3x4 matrix stored as 12 floats (passed as (__global const float*)&in->o2w, the
+ * whole array: indexing past a row of the float[3][4] is out of bounds to Oclgrind). */
 inline float4 xf_row(__global const float* m, uint r) { return vload4(r, m); }
 
 inline float3 xf_point(__global const float* m, float3 p)
@@ -105,9 +106,11 @@ int instance_leaf(TX_GEOM_PARAMS, float4 org4, float4 dir4, float tmin, uint fir
 {
     float3 org = org4.xyz, dir = dir4.xyz;     /* float4, not float3: core/common.h (out of line) */
     int found = 0;
+    end = TX_MIN(end, ninstances);             /* a bad index is a miss */
     for (uint i = first; i < end; ++i) {
         __global const Instance* in = instances + i;
-        float3 o = xf_point(in->w2o[0], org), d = xf_vector(in->w2o[0], dir);
+        __global const float* w2o = (__global const float*)&in->w2o;
+        float3 o = xf_point(w2o, org), d = xf_vector(w2o, dir);
         if (blas_traverse(TX_GEOM_ARGS, in->root, i, (float4)(o, 0.0f), (float4)(d, 0.0f), tmin, any, h)) {
             found = 1;
             if (any) return 1;
@@ -124,12 +127,12 @@ int instance_leaf(TX_GEOM_PARAMS, float4 org4, float4 dir4, float tmin, uint fir
  * same triangles copied (a mirror reverses the winding). */
 void instance_geom(__global const Instance* in, Geom* g)
 {
-    __global const float* m = in->o2w[0];
+    __global const float* m = (__global const float*)&in->o2w;
     float3 p = g->p;
-    float3 mp = xf_abs_vector(m, abs3(p)) + fabs((float3)(m[3], m[7], m[11]));
+    float3 mp = xf_abs_vector(m, abs3(p)) + fabs((float3)(xf_row(m, 0u).w, xf_row(m, 1u).w, xf_row(m, 2u).w));
     g->perr = (1.0f + gamma_n(3.0f)) * xf_abs_vector(m, g->perr) + gamma_n(3.0f) * mp;
     g->p = xf_point(m, p);
-    g->ng = normalize3(in->det_sign * xf_vector(in->nrm[0], g->ng));
+    g->ng = normalize3(in->det_sign * xf_vector((__global const float*)&in->nrm, g->ng));
     g->dpdu = xf_vector(m, g->dpdu);
     g->dpdv = xf_vector(m, g->dpdv);
 }

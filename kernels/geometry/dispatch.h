@@ -167,7 +167,7 @@ static inline PrimIds hit_geom(TX_GEOM_PARAMS, __global const TriShade* tri_shad
 #if TX_INSTANCES
     else if (kind == PRIM_INSTANCE) {        /* a mesh's triangle, in its object space, moved to world */
         __global const TriShade* ts = tri_shade + idx;
-        __global const Instance* in = instances + h->inst;
+        __global const Instance* in = instances + TX_MIN(h->inst, ninstances - 1u);   /* set by instance_leaf */
         triangle_geom(tris + idx, ts, h->b1, h->b2, uvs, g);
         instance_geom(in, g);
         ids.material = ts->material; ids.object = in->object; ids.prim = ts->prim;

@@ -85,9 +85,9 @@ static inline void instance_vertex_normal(float3 dir, const HitRec* h, TX_GEOM_P
     uint idx = h->prim & HIT_INDEX_MASK;
     __global const TriShade* ts = tri_shade + idx;
     if (!(ts->flags & TRI_HAS_NORMALS)) return;
-    __global const Instance* in = instances + h->inst;
-    __global const float* nm = in->nrm[0];
-    __global const float* m = in->o2w[0];
+    __global const Instance* in = instances + TX_MIN(h->inst, ninstances - 1u);
+    __global const float* nm = (__global const float*)&in->nrm;
+    __global const float* m = (__global const float*)&in->o2w;
     float3 n0 = normalize3(xf_vector(nm, vload3(ts->v[0], normals)));
     float3 n1 = normalize3(xf_vector(nm, vload3(ts->v[1], normals)));
     float3 n2 = normalize3(xf_vector(nm, vload3(ts->v[2], normals)));

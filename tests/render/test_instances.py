@@ -248,3 +248,27 @@ def test_every_device_agrees(dev):
     _close(ia.rgb, ib.rgb)
     staged = tx.render(a, 48, 48, spp=1, device=dev, cache=False, pipeline="stages")
     np.testing.assert_array_equal(staged.rgb, ia.rgb)
+
+
+@pytest.mark.parametrize("mapped", [False, True])
+def test_textured_and_projected_instances(device, mapped):
+    """Texture lookups through the mesh's uvs (trilinear: ray differentials from the
+    world-space dP/du, dP/dv), or a projection mapping in the mesh's space placed by the
+    instance: the same as a Mesh with that Transform."""
+    from texray.procedural import textures
+    tex = tx.Texture(textures.checker(64, 8), name="checks", filter="trilinear")
+    mat = tx.Material(diffuse=tex)
+    md = meshes.torus(24, 12)
+    mapping = tx.Projection(kind="cylindrical", z_axis=(0, 1, 0), scale=2.0) if mapped else None
+    cam = tx.Camera(eye=(0, 0, 4), look_at=(0, 0, 0), fov_y=45)
+    kw = dict(camera=cam, lights=[tx.PointLight(position=(3, 4, 5), intensity=(30, 30, 30))], ambient=(0.05,) * 3)
+    a, b = tx.Scene(**kw), tx.Scene(**kw)
+    mesh = tx.Mesh(md.positions, md.faces, md.uvs, md.normals, mat, name="torus", mapping=mapping)
+    for i, (t, r) in enumerate((((-0.6, 0, 0), (60, 0, 0)), ((0.7, 0.2, -0.5), (20, 40, 10)))):
+        tf = tx.Transform(translate=t, rotate=r, scale=(0.6, 0.4, 0.5))
+        a.add(tx.Instance(mesh, tf, name=f"i{i}"))
+        b.add(tx.Mesh(md.positions, md.faces, md.uvs, md.normals, mat, transform=tf, name=f"c{i}", mapping=mapping))
+    ia = tx.render(a, W, H, spp=1, device=device, cache=False)
+    ib = tx.render(b, W, H, spp=1, device=device, cache=False)
+    assert ia.stats["features"].textures and ia.stats["features"].projections == mapped
+    _close(ia.rgb, ib.rgb)

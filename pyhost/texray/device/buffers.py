@@ -57,6 +57,7 @@ GEOM = (
     Param("displaced", "Displaced", _G, SCENE, "displaced"),
     Param("heights", "ushort", _G, SCENE, "heights", "unorm16 height fields and their min-max pyramids"),
     Param("instances", "Instance", _G, SCENE, "instances", "mesh instances (kernels/accel/instance.h)", "instances"),
+    Param("ninstances", "uint", "", COUNT, "instances", "instance indices at or above are misses", "instances"),
 )
 # What the surface stage reads besides the geometry.
 SURFACE = (
@@ -137,7 +138,7 @@ class Uploaded:
                                             cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
                                                       hostbuf=np.ascontiguousarray(a)))
                 elif p.source == COUNT:
-                    self.counts[p.name] = np.uint32(len(a))
+                    self.counts[p.name] = np.uint32(0 if a is None else len(a))
 
     def args(self, group, **render):
         """The arguments of ``group`` ("GEOM", "SURFACE", "LIGHT") in kernel order; RENDER
