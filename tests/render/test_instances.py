@@ -272,3 +272,31 @@ def test_textured_and_projected_instances(device, mapped):
     ib = tx.render(b, W, H, spp=1, device=device, cache=False)
     assert ia.stats["features"].textures and ia.stats["features"].projections == mapped
     _close(ia.rgb, ib.rgb)
+
+
+@pytest.mark.parametrize("role", ["bump", "tangent", "object"])
+def test_bump_and_normal_mapped_instances(device, role):
+    """Bump maps (world-space dP/du, dP/dv), tangent- and object-space normal maps (the
+    object table's normal matrix of the instance after its mesh) as on a Mesh with that
+    Transform."""
+    from texray.procedural import textures
+    rng = np.random.default_rng(5)
+    if role == "bump":
+        mat = tx.Material(diffuse=(0.7, 0.6, 0.5), bump=tx.Bump(tx.Texture(textures.checker(32, 4)), height=0.02))
+    else:
+        n = rng.normal(size=(16, 16, 3)) * 0.3 + [0, 0, 1]
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        mat = tx.Material(diffuse=(0.7, 0.6, 0.5),
+                          normal_map=tx.NormalMap(tx.Texture(((n + 1) / 2).astype(np.float32)), space=role))
+    md = meshes.torus(24, 12)
+    cam = tx.Camera(eye=(0, 0, 4), look_at=(0, 0, 0), fov_y=45)
+    kw = dict(camera=cam, lights=[tx.PointLight(position=(3, 4, 5), intensity=(30, 30, 30))], ambient=(0.05,) * 3)
+    a, b = tx.Scene(**kw), tx.Scene(**kw)
+    mesh = tx.Mesh(md.positions, md.faces, md.uvs, md.normals, mat, name="torus")
+    for i, (t, r) in enumerate((((-0.6, 0, 0), (60, 0, 0)), ((0.7, 0.2, -0.5), (20, 40, 10)))):
+        tf = tx.Transform(translate=t, rotate=r, scale=(0.6, 0.4, 0.5))
+        a.add(tx.Instance(mesh, tf, name=f"i{i}"))
+        b.add(tx.Mesh(md.positions, md.faces, md.uvs, md.normals, mat, transform=tf, name=f"c{i}"))
+    ia = tx.render(a, W, H, spp=1, device=device, cache=False)
+    ib = tx.render(b, W, H, spp=1, device=device, cache=False)
+    _close(ia.rgb, ib.rgb)
