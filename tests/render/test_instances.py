@@ -300,3 +300,14 @@ def test_bump_and_normal_mapped_instances(device, role):
     ia = tx.render(a, W, H, spp=1, device=device, cache=False)
     ib = tx.render(b, W, H, spp=1, device=device, cache=False)
     _close(ia.rgb, ib.rgb)
+
+
+def test_scene_cache_round_trip(tmp_path, monkeypatch, device):
+    monkeypatch.delenv("TEXRAY_NO_CACHE", raising=False)
+    monkeypatch.setenv("TEXRAY_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("TEXRAY_CACHE_MIN_S", "0")
+    a, _ = _pair()
+    first = tx.render(a, 32, 32, spp=1, device=device)
+    again = tx.render(a, 32, 32, spp=1, device=device)
+    assert (first.stats["scene_cache"], again.stats["scene_cache"]) == ("stored", "hit")
+    np.testing.assert_array_equal(first.rgb, again.rgb)
