@@ -185,4 +185,8 @@ inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tma
     return bvh_any_v(TX_GEOM_ARGS, (float4)(org, 0.0f), (float4)(dir, 0.0f), tmin, tmax);
 }
 
+#if TX_INSTANCES
+#include "accel/instance.h"
+#endif
+
 #endif

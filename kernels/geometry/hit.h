@@ -9,7 +9,13 @@
  * parameters (b1, b2: a triangle's barycentrics of P1, P2; a quad's or a displaced
  * surface's (u, v); unused for spheres and cylinders) and prim = (kind << HIT_KIND_SHIFT)
  * | index in that kind's array (triangles: kind 0, the plain index), TX_MISS for none. */
+#if TX_INSTANCES
+/* inst: the instance (accel/instance.h) of a hit of kind PRIM_INSTANCE, whose index is then
+ * the mesh's triangle in tri_verts; 0 (initializers leave it) otherwise. */
+typedef struct { float t, b1, b2; uint prim, inst; } HitRec;
+#else
 typedef struct { float t, b1, b2; uint prim; } HitRec;
+#endif
 
 typedef struct {            /* what the surface stage needs about a hit, in world space */
     float3 p;               /* the hit point, on the surface */

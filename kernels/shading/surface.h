@@ -74,6 +74,34 @@ inline void write_miss_aovs(__global float* aov, uint gid)
     a[AOV_OBJECT_ID] = -1.0f;
 }
 
+#if TX_INSTANCES && TX_VERTEX_NORMALS
+/* Step 1 for an instanced triangle with vertex normals: each vertex normal through the
+ * instance's normal matrix and renormalized (as texray.linalg.apply_normals does for the
+ * triangles copied), interpolated; the lift from the world-space corners. */
+static inline void instance_vertex_normal(float3 dir, const HitRec* h, TX_GEOM_PARAMS,
+                                          __global const TriShade* tri_shade, __global const float* normals,
+                                          SurfaceGeom* sg)
+{
+    uint idx = h->prim & HIT_INDEX_MASK;
+    __global const TriShade* ts = tri_shade + idx;
+    if (!(ts->flags & TRI_HAS_NORMALS)) return;
+    __global const Instance* in = instances + TX_MIN(h->inst, ninstances - 1u);
+    __global const float* nm = (__global const float*)&in->nrm;
+    __global const float* m = (__global const float*)&in->o2w;
+    float3 n0 = normalize3(xf_vector(nm, vload3(ts->v[0], normals)));
+    float3 n1 = normalize3(xf_vector(nm, vload3(ts->v[1], normals)));
+    float3 n2 = normalize3(xf_vector(nm, vload3(ts->v[2], normals)));
+    float b0 = 1.0f - h->b1 - h->b2;
+    float3 ns_raw = b0 * n0 + h->b1 * n1 + h->b2 * n2;
+    int vertex_normal = dot3(ns_raw, ns_raw) > 0.0f && finite3(ns_raw);
+    if (vertex_normal && dot3(ns_raw, dir) < 0.0f)
+        sg->lift = terminator_lift(sg->g.p, xf_point(m, tri_p0(tris + idx)), xf_point(m, tri_p1(tris + idx)),
+                                   xf_point(m, tri_p2(tris + idx)), n0, n1, n2, b0, h->b1, h->b2);
+    sg->ns_raw = ns_raw;
+    sg->vertex_normal = vertex_normal;
+}
+#endif
+
 /* Step 1, geometry: the kind's Geom and ids (hit_geom); for triangles with vertex
  * normals also their interpolation and the shadow-ray lift (shading/terminator.h). */
 static inline void surface_geometry(float3 org, float3 dir, const HitRec* h, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
@@ -84,6 +112,12 @@ static inline void surface_geometry(float3 org, float3 dir, const HitRec* h, TX_
     sg->ns_raw = (float3)(0.0f);
     sg->lift = (float3)(0.0f);
 #if TX_VERTEX_NORMALS
+#if TX_INSTANCES
+    if ((h->prim >> HIT_KIND_SHIFT) == PRIM_INSTANCE) {
+        instance_vertex_normal(dir, h, TX_GEOM_ARGS, tri_shade, normals, sg);
+        return;
+    }
+#endif
     if ((h->prim >> HIT_KIND_SHIFT) != PRIM_TRIANGLE) return;
     uint idx = h->prim & HIT_INDEX_MASK;
     __global const TriShade* ts = tri_shade + idx;

@@ -9,6 +9,9 @@ __kernel void intersect(__global const Ray* rays, __global Hit* hits, uint n, TX
     HitRec h = bvh_closest(TX_GEOM_ARGS, ray_org(r), ray_dir(r), r->tmin, r->tmax);
     __global Hit* o = hits + gid;
     o->t = h.t; o->b1 = h.b1; o->b2 = h.b2; o->prim = h.prim;
+#if TX_INSTANCES
+    hits[n + gid].prim = h.inst;     /* the host allocates 2n records with instances */
+#endif
 }
 
 /* Any hit of every ray with t in (tmin, tmax): 1 = occluded. Used by the

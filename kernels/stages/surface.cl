@@ -9,6 +9,9 @@ __kernel void surface(__global const Ray* rays, __global const Hit* hits, __glob
     if (gid >= n) return;
     __global const Hit* gh = hits + gid;
     HitRec h = { gh->t, gh->b1, gh->b2, gh->prim };
+#if TX_INSTANCES
+    h.inst = hits[n + gid].prim;     /* stages/intersect.cl */
+#endif
     Surface s;
     surface_eval(ray_org(rays + gid), ray_dir(rays + gid), h, TX_GEOM_ARGS, TX_SURFACE_ARGS, aov, gid, &s);
     if (s.valid) out[gid] = s;

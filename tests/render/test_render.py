@@ -81,7 +81,7 @@ def test_stats_time_each_compile_step(device, scenes_dir):
     scene = tx.Scene.load(scenes_dir / "showcase.toml")
     s = tx.render(scene, 16, 12, 1, device=device, cache=False).stats
     steps = s["compile_steps_s"]
-    assert set(steps) == {"validate", "tessellate", "records", "heights", "bvh", "wide", "leaf_order", "textures",
-                          "tables"}
+    assert set(steps) == {"validate", "tessellate", "records", "heights", "instances", "bvh", "wide", "leaf_order",
+                          "textures", "tables"}
     assert all(v >= 0 for v in steps.values())
     assert sum(steps.values()) <= s["scene_compile_s"] and steps["bvh"] >= s["bvh_build_s"] * 0.9

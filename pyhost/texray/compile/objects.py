@@ -9,11 +9,18 @@ from ..linalg import apply_points
 from ..scene.shape import materials_of
 
 
+def _matrix(obj):
+    """The object's 4x4 object-to-world matrix (an instance's after its mesh's own)."""
+    if hasattr(obj, "world_matrix"):
+        return obj.world_matrix()
+    return np.eye(4) if obj.transform is None else obj.transform.matrix()
+
+
 def object_frame(obj):
     """The object's projection frame in world space as (origin, x, y, z) rows, axes scaled so that
     dot(p_world - origin, axis) equals the object-space coordinate times the projection's scale."""
     f = obj.mapping.device_frame().astype(np.float64)
-    m = np.eye(4) if obj.transform is None else obj.transform.matrix()
+    m = _matrix(obj)
     inv_t = np.linalg.inv(m[:3, :3]).T
     return np.stack([apply_points(m, f[:1])[0], inv_t @ f[1], inv_t @ f[2], inv_t @ f[3]])
 
@@ -30,7 +37,7 @@ def object_table(objs, always=False):
             f = object_frame(o)
             table[i]["mapping"] = o.mapping.kind_id
             table[i]["origin"], table[i]["x"], table[i]["y"], table[i]["z"] = f
-        m = np.eye(4) if o.transform is None else o.transform.matrix()
+        m = _matrix(o)
         table[i]["nm0"], table[i]["nm1"], table[i]["nm2"] = np.linalg.inv(m[:3, :3]).T
     return table
 

@@ -19,9 +19,10 @@ from ..accel.scene_bvh import BUILDERS, SceneBVH, build_scene_bvh
 from ..device import buffers, layout
 from ..device.features import Features, max_lights_for, stack_size_for
 from ..errors import SceneError
-from ..scene import Camera, Cylinder, Mesh, Quad, Scene, Sphere
+from ..scene import Camera, Cylinder, Instance, Mesh, Quad, Scene, Sphere
 from ..scene.shape import check_extent, materials_of, outward
 from ..scene.texture import FILTERS
+from . import instances as inst_blas
 from .heights import METHOD_ADAPTIVE, METHOD_IDS, height_key, pack_heights
 from .materials import MaterialTable
 from .objects import object_table
@@ -58,6 +59,7 @@ class CompiledScene:
     camera: Camera | None = None          # the scene's camera when compiled
     objects_generic: np.ndarray | None = None   # layout.OBJECT for every object: what the generic program reads
     texture_names: tuple = ()             # the textures' names, for error messages
+    instances: np.ndarray | None = None   # layout.INSTANCE, top-level leaf order (kernels/accel/instance.h)
     steps_s: dict | None = None           # seconds of each step of compile_scene (image.stats["compile_steps_s"])
 
     def device_bytes(self) -> dict[str, int]:
@@ -137,10 +139,13 @@ def _sorted_objects(scene):
     """{shape class: [(obj_id, shape)]} of what the BVH holds directly (tessellated shapes
     as meshes) and the [(obj_id, shape)] displaced on the device."""
     by_kind = {cls: [] for cls, _ in _KINDS}
+    by_kind[Instance] = []
     displaced = []
     for obj_id, obj in enumerate(scene.objects):
         d = getattr(obj.material, "displacement", None)
-        if d is None:
+        if isinstance(obj, Instance):            # Mesh validation refuses displacement
+            by_kind[Instance].append((obj_id, obj))
+        elif d is None:
             by_kind[type(obj)].append((obj_id, obj))
         elif isinstance(obj, Mesh):          # Mesh validation refuses displacement; the material changed since
             raise SceneError(f"{obj.name}: material.displacement: triangle meshes are not displaced (no sound "
@@ -173,13 +178,18 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
     if texture_filter is not None and (not isinstance(texture_filter, str) or texture_filter not in FILTERS):
         raise SceneError(f"render: texture_filter: expected None or one of {', '.join(FILTERS)}, "
                          f"got {texture_filter!r}")
+    meshes_checked = set()
     for obj in scene.objects:              # fields may have changed since the objects were made
-        obj.validate()
+        if isinstance(obj, Instance):      # a shared mesh once
+            obj.validate(check_mesh=id(obj.mesh) not in meshes_checked)
+            meshes_checked.add(id(obj.mesh))
+        else:
+            obj.validate()
     step("validate")
     by_kind, displaced = _sorted_objects(scene)
     step("tessellate")
     mats = MaterialTable(texture_filter)
-    meshes = by_kind[Mesh]
+    meshes = by_kind[Mesh] + [(i, o.mesh) for i, o in by_kind[Instance]]
     any_normals = any(m.normals is not None for _, m in meshes)
     any_uvs = any(m.uvs is not None and any(mt.textures for mt in m.materials) for _, m in meshes)
     arrays, boxes = {}, {}
@@ -189,6 +199,12 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
     step("records")
     disp, heights, boxes[layout.PRIM_DISPLACED] = _displaced(displaced, mats)
     step("heights")
+    blases = None
+    if by_kind[Instance]:
+        blases = inst_blas.build(by_kind[Instance], mats, any_normals, any_uvs,
+                                 sum(len(m.positions) for _, m in by_kind[Mesh]), bvh_builder)
+        boxes[layout.PRIM_INSTANCE] = inst_blas.boxes(blases)
+    step("instances")
 
     if bvh_builder not in BUILDERS:
         raise SceneError(f"compile_scene: bvh_builder: expected one of {', '.join(BUILDERS)}, got {bvh_builder!r}")
@@ -203,6 +219,10 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
                 arrays[n] = arrays[n][order[cls.PRIM]]
     if layout.PRIM_DISPLACED in order:
         disp = disp[order[layout.PRIM_DISPLACED]]
+    instances = None
+    if blases is not None:
+        wide_nodes, instances = inst_blas.place(blases, arrays, wide_nodes, order[layout.PRIM_INSTANCE])
+        wide_depth = max(wide_depth, blases.depth)   # the BLAS traversal has its own stack
     step("leaf_order")
 
     materials, any_specular = mats.table()
@@ -225,7 +245,7 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
                         shininess_maps="shininess_tex" in slots, labels="label_tex" in slots,
                         bump=any(m.bump is not None for m in mats.materials),
                         normal_maps=any(m.normal_map is not None for m in mats.materials),
-                        displacement=len(disp) > 0,
+                        displacement=len(disp) > 0, instances=instances is not None,
                         stack_size=stack_size_for(wide.stack_depth(wide_depth)),
                         max_lights=max_lights_for(len(scene.lights)))
     objects, objects_generic = object_table(scene.objects), object_table(scene.objects, always=True)
@@ -237,6 +257,6 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
         background=np.append(background, 0).astype(np.float32),
         features=features, bvh=tree, displaced=disp if len(disp) else None, heights=heights,
         wide_depth=wide_depth, camera=copy.deepcopy(scene.camera),
-        objects_generic=objects_generic,
+        objects_generic=objects_generic, instances=instances,
         texture_names=tuple(sorted({t.name for o in scene.objects for m in materials_of(o) for t in m.textures})),
         steps_s=steps)

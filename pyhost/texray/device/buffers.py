@@ -34,6 +34,10 @@ class Param:
     source: str
     field: str = ""
     doc: str = ""
+    feature: str = ""    # a Features flag: the parameter exists only in programs compiled with it
+
+    def present(self, features) -> bool:
+        return not self.feature or bool(getattr(features, self.feature))
 
     def declaration(self) -> str:
         pointer = "*" if self.space else ""
@@ -52,6 +56,8 @@ GEOM = (
     Param("quads", "QuadVerts", _G, SCENE, "quad_verts"),
     Param("displaced", "Displaced", _G, SCENE, "displaced"),
     Param("heights", "ushort", _G, SCENE, "heights", "unorm16 height fields and their min-max pyramids"),
+    Param("instances", "Instance", _G, SCENE, "instances", "mesh instances (kernels/accel/instance.h)", "instances"),
+    Param("ninstances", "uint", "", COUNT, "instances", "instance indices at or above are misses", "instances"),
 )
 # What the surface stage reads besides the geometry.
 SURFACE = (
@@ -84,8 +90,21 @@ def opencl_macros() -> str:
     (the names, to pass them on) for every group."""
     lines = []
     for group, params in GROUPS.items():
-        lines.append(f"#define TX_{group}_PARAMS " + ", ".join(p.declaration() for p in params))
-        lines.append(f"#define TX_{group}_ARGS " + ", ".join(p.name for p in params))
+        flags = sorted({p.feature for p in params if p.feature})
+        if not flags:
+            lines.append(f"#define TX_{group}_PARAMS " + ", ".join(p.declaration() for p in params))
+            lines.append(f"#define TX_{group}_ARGS " + ", ".join(p.name for p in params))
+            continue
+        # A parameter of a feature is declared only in programs compiled with it (one
+        # flag per group so far: both variants spelled out).
+        (flag,) = flags
+        macro = f"TX_{flag.upper()}"
+        for cond, with_it in ((f"#if {macro}", True), ("#else", False)):
+            lines.append(cond)
+            ps = [p for p in params if not p.feature or with_it]
+            lines.append(f"#define TX_{group}_PARAMS " + ", ".join(p.declaration() for p in ps))
+            lines.append(f"#define TX_{group}_ARGS " + ", ".join(p.name for p in ps))
+        lines.append("#endif")
     return "\n".join(lines) + "\n"
 
 
@@ -108,21 +127,26 @@ class Uploaded:
     def __init__(self, ctx, cs):
         mf = cl.mem_flags
         self.buffers, self.counts = {}, {}
+        self.features = cs.features
         for params in GROUPS.values():
             for p in params:
+                if not p.present(cs.features):
+                    continue
                 a = getattr(cs, p.field) if p.field else None
                 if p.source == SCENE:
                     self.buffers[p.name] = (None if a is None or a.nbytes == 0 else
                                             cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
                                                       hostbuf=np.ascontiguousarray(a)))
                 elif p.source == COUNT:
-                    self.counts[p.name] = np.uint32(len(a))
+                    self.counts[p.name] = np.uint32(0 if a is None else len(a))
 
     def args(self, group, **render):
         """The arguments of ``group`` ("GEOM", "SURFACE", "LIGHT") in kernel order; RENDER
         parameters are given by name."""
         out = []
         for p in GROUPS[group]:
+            if not p.present(self.features):
+                continue
             if p.source == SCENE:
                 out.append(self.buffers[p.name])
             elif p.source == COUNT:

@@ -43,6 +43,7 @@ PRIM_SPHERE = 1
 PRIM_CYLINDER = 2
 PRIM_QUAD = 3
 PRIM_DISPLACED = 4      # a displaced quad, sphere or cylinder (DISPLACED.shape): kernels/geometry/displace.h
+PRIM_INSTANCE = 5       # an instance of a mesh (INSTANCE): kernels/accel/instance.h
 
 
 def encode_leaf(count, kind=PRIM_TRIANGLE):
@@ -132,6 +133,18 @@ DISPLACED = np.dtype([
 ])
 DISP_QUAD, DISP_SPHERE, DISP_CYLINDER = 0, 1, 2
 DISP_SEARCH, DISP_MAXMIP, DISP_ADAPTIVE = 0, 1, 4     # DISPLACED.method: a method | the adaptive bit
+
+# --- Instance of a mesh: 160 bytes --------------------------------------------
+# A placed copy of a mesh whose triangles (in the mesh's own world space, "object space")
+# and 4-wide BLAS are stored once in tri_verts / nodes. Rows of 3x4 matrices acting on
+# column vectors: w2o world to object, o2w object to world; nrm the rows of the normal
+# matrix (inverse transpose of o2w's 3x3, 4th column 0). root: the BLAS root's wide node
+# index in ``nodes``; object: the instance's index in the scene (ids, AOV object_id);
+# det_sign: +1, or -1 for a mirroring transform (the geometric normal's side).
+INSTANCE = np.dtype([
+    ("w2o", "<f4", (3, 4)), ("o2w", "<f4", (3, 4)), ("nrm", "<f4", (3, 4)),
+    ("root", "<u4"), ("object", "<u4"), ("det_sign", "<f4"), ("pad0", "<u4"),
+])
 
 # --- Material: 64 bytes -----------------------------------------------------
 # Texture slots are indices into the texture table, -1 = none.
@@ -234,7 +247,7 @@ AOV_FLOATS = 20
 STRUCTS = {
     "BVHNode": BVH_NODE, "BVH4Node": BVH4_NODE, "TriVerts": TRI_VERTS, "TriShade": TRI_SHADE,
     "Sphere": SPHERE, "Cylinder": CYLINDER, "QuadVerts": QUAD_VERTS, "QuadShade": QUAD_SHADE,
-    "Displaced": DISPLACED, "Material": MATERIAL,
+    "Displaced": DISPLACED, "Instance": INSTANCE, "Material": MATERIAL,
     "TextureInfo": TEXTURE, "ObjectInfo": OBJECT, "PointLight": POINT_LIGHT, "Camera": CAMERA,
     "Ray": RAY, "Hit": HIT, "Surface": SURFACE,
 }
@@ -245,6 +258,7 @@ CONSTANTS = {
     "LEAF_COUNT_BITS": LEAF_COUNT_BITS, "LEAF_COUNT_MASK": LEAF_COUNT_MASK,
     "PRIM_TRIANGLE": PRIM_TRIANGLE, "PRIM_SPHERE": PRIM_SPHERE, "PRIM_CYLINDER": PRIM_CYLINDER,
     "PRIM_QUAD": PRIM_QUAD, "PRIM_DISPLACED": PRIM_DISPLACED,
+    "PRIM_INSTANCE": PRIM_INSTANCE,
     "DISP_QUAD": DISP_QUAD, "DISP_SPHERE": DISP_SPHERE, "DISP_CYLINDER": DISP_CYLINDER,
     "DISP_SEARCH": DISP_SEARCH, "DISP_MAXMIP": DISP_MAXMIP, "DISP_ADAPTIVE": DISP_ADAPTIVE, "HIT_KIND_SHIFT": HIT_KIND_SHIFT, "HIT_INDEX_MASK": HIT_INDEX_MASK,
     "AOV_FLOATS": AOV_FLOATS, **{f"AOV_{k.upper()}": v[0] for k, v in AOVS.items()},

@@ -16,8 +16,8 @@ except ModuleNotFoundError:        # Python < 3.11
 
 from ..errors import SceneError
 from ..procedural import meshes as _meshes
-from ..scene import (Bump, Camera, Cylinder, Displacement, Label, Material, Mesh, NormalMap, PointLight, Projection,
-                     Quad, Scene, Sphere, Texture, Transform, UVTransform)
+from ..scene import (Bump, Camera, Cylinder, Displacement, Instance, Label, Material, Mesh, NormalMap, PointLight,
+                     Projection, Quad, Scene, Sphere, Texture, Transform, UVTransform)
 from ..scene.mapping import WRAP_MODES
 from ..scene.texture import DEFAULT_MAX_ANISO
 from .. import validate as V
@@ -47,6 +47,8 @@ _SCHEMA = {
     "objects": {"type": str, "material": str, "translate": _VEC, "rotate": _VEC, "scale": (int, float, list),
                 "mapping": dict,
                 "mesh": str,                                                   # type = "mesh"
+                "name": str, "hidden": bool,                                   # "mesh", "procedural"
+                "of": str,                                                     # type = "instance"
                 "generator": str, "params": dict,                              # type = "procedural"
                 "center": _VEC, "radius": _NUM, "axis_z": _VEC, "axis_x": _VEC,   # "sphere", "cylinder"
                 "z_range": _VEC, "theta_range": _VEC, "origin": _VEC,          # "cylinder"
@@ -56,8 +58,9 @@ _REQUIRED = {"lights": ("position",), "mapping": ("kind",), "label": ("texture",
              "normal_map": ("texture",), "displacement": ("texture",)}
 # Keys each object type takes besides type, material and the transform; the first ones are required.
 _OBJECT_KEYS = {
-    "mesh": (("mesh",), ()),
-    "procedural": (("generator",), ("params",)),
+    "mesh": (("mesh",), ("name", "hidden")),
+    "procedural": (("generator",), ("params", "name", "hidden")),
+    "instance": (("of",), ()),
     "sphere": ((), ("center", "radius", "axis_z", "axis_x")),
     "cylinder": ((), ("radius", "z_range", "theta_range", "origin", "axis_z", "axis_x")),
     "quad": (("p0", "p1", "p2", "p3"), ("uvs",)),
@@ -150,8 +153,15 @@ def _build(doc, base, path):
     scene = Scene(camera=Camera(**cam), lights=lights, **sc)
     eye_where = "camera."
     scene.camera.basis(1.0, eye_where)
+    named = {}                  # name -> mesh, for instances (type = "instance", of = NAME)
     for i, ob in enumerate(doc.get("objects", [])):
-        scene.add(_object(ob, f"objects[{i}]", materials, base))
+        obj = _object(ob, f"objects[{i}]", materials, base, named)
+        if "name" in ob:
+            if ob["name"] in named:
+                raise SceneError(f"objects[{i}].name: {ob['name']!r} names an earlier object too")
+            named[ob["name"]] = obj
+        if not ob.get("hidden", False):
+            scene.add(obj)
     scene.render_settings = dict(settings)
     return scene
 
@@ -209,7 +219,19 @@ def _label(value, textures, where):
     return Label(_named_texture(textures, value["texture"], f"{where}.texture"), uv_transform=uvt)
 
 
-def _object(ob, where, materials, base):
+def _instance(ob, where, named, tf):
+    """type = "instance": the mesh object named ``of`` placed by the object's transform
+    (after the mesh's own); its material and mapping are the mesh's."""
+    for key in ("material", "mapping"):
+        if key in ob:
+            raise SceneError(f"{where}.{key}: an instance has its mesh's {key}; set it on the mesh object")
+    if ob["of"] not in named:
+        raise SceneError(f"{where}.of: no earlier mesh object named {ob['of']!r} "
+                         f"(named: {', '.join(named) or 'none'})")
+    return Instance(named[ob["of"]], tf, name=where)
+
+
+def _object(ob, where, materials, base, named=None):
     _check_table(ob, "objects", where)
     kind = ob.get("type", "mesh")
     if kind not in _OBJECT_KEYS:
@@ -230,7 +252,9 @@ def _object(ob, where, materials, base):
     material = materials.get(mat_name, Material())
     tf = _wrap_errors(lambda: Transform(**{k: ob[k] for k in ("translate", "rotate", "scale") if k in ob}),
                       where + ".")
-    args = {k: ob[k] for k in required + optional if k in ob}
+    if kind == "instance":
+        return _instance(ob, where, named or {}, tf)
+    args = {k: ob[k] for k in required + optional if k in ob and k not in ("name", "hidden")}
     if "mapping" in ob:
         _check_table(ob["mapping"], "mapping", f"{where}.mapping")
         args["mapping"] = _wrap_errors(lambda: Projection(**ob["mapping"]), f"{where}.mapping.")

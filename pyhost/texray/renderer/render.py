@@ -263,7 +263,8 @@ class _Run:
         try:
             staged = not fused or aovs
             self.rays = cl.Buffer(ctx, mf.READ_WRITE, n_max * layout.RAY.itemsize) if staged else None
-            self.hits = cl.Buffer(ctx, mf.READ_WRITE, n_max * layout.HIT.itemsize) if staged else None
+            hit_records = 2 if cs.features.instances else 1      # stages/intersect.cl: + the instances
+            self.hits = cl.Buffer(ctx, mf.READ_WRITE, hit_records * n_max * layout.HIT.itemsize) if staged else None
             self.surf = cl.Buffer(ctx, mf.READ_WRITE, n_max * layout.SURFACE.itemsize) if staged else None
             self.vis = cl.Buffer(ctx, mf.READ_WRITE, n_max * nl) if not fused else None
             self.accum = cl.Buffer(ctx, mf.READ_WRITE, n_max * 16)

@@ -48,7 +48,8 @@ class Tracer:
     def closest(self, org, dirs, tmin=0.0, tmax=np.inf) -> Hits:
         n, rays = self._rays(org, dirs, tmin, tmax)
         out = np.zeros(n, layout.HIT)
-        hits = cl.Buffer(self.rt.context, cl.mem_flags.WRITE_ONLY, max(out.nbytes, 16))
+        hits = cl.Buffer(self.rt.context, cl.mem_flags.WRITE_ONLY,   # intersect.cl: 2n records with instances
+                         max(out.nbytes * (2 if self.up.features.instances else 1), 16))
         ev = self._k_closest(self.rt.queue, (n,), None, rays, hits, np.uint32(n), *self.up.geom)
         cl.enqueue_copy(self.rt.queue, out, hits, wait_for=[ev])
         prim = out["prim"].astype(np.int64)

@@ -9,6 +9,7 @@ from .bump import Bump, NormalMap
 from .camera import Camera
 from .cylinder import Cylinder
 from .displacement import Displacement
+from .instance import Instance
 from .light import PointLight
 from .mapping import Projection, UVTransform
 from .material import Material
@@ -19,5 +20,5 @@ from .sphere import Sphere
 from .texture import Label, Texture
 from .transform import Transform
 
-__all__ = ["Bump", "Camera", "Cylinder", "Displacement", "Label", "Material", "Mesh", "NormalMap", "PointLight",
-           "Projection", "Quad", "SHAPES", "Scene", "Sphere", "Texture", "Transform", "UVTransform"]
+__all__ = ["Bump", "Camera", "Cylinder", "Displacement", "Instance", "Label", "Material", "Mesh", "NormalMap",
+           "PointLight", "Projection", "Quad", "SHAPES", "Scene", "Sphere", "Texture", "Transform", "UVTransform"]

@@ -8,12 +8,13 @@ from .. import validate as V
 from .camera import Camera
 from .cylinder import Cylinder
 from .light import PointLight
+from .instance import Instance
 from .mesh import Mesh
 from .quad import Quad
 from .sphere import Sphere
 
-SHAPES = (Mesh, Sphere, Cylinder, Quad)
-_SHAPE_NAMES = "a texray Mesh, Sphere, Cylinder or Quad"
+SHAPES = (Mesh, Sphere, Cylinder, Quad, Instance)
+_SHAPE_NAMES = "a texray Mesh, Sphere, Cylinder, Quad or Instance"
 
 
 @dataclass

@@ -1,0 +1,97 @@
+"""The bottom level of the two-level BVH: each mesh that instances share is compiled once
+(its triangles in the mesh's own world space, one 4-wide BLAS) and appended to the
+scene's triangle and node arrays; each texray.Instance becomes one layout.INSTANCE
+record and one box (its BLAS root's box through its matrix) in the top-level tree."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..accel import wide
+from ..accel.scene_bvh import build_scene_bvh
+from ..device import layout
+from ..scene.shape import outward
+
+_EMPTY = (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32))
+
+
+@dataclass
+class Blases:
+    """The instanced meshes compiled once, before their offsets into the scene's arrays."""
+    meshes: list          # [(mesh, records dict, wide nodes, depth)] per unique mesh
+    items: list           # [(obj_id, instance, mesh index)]
+    depth: int = 0        # the deepest BLAS, in wide levels
+
+
+def build(items, mats, any_normals, any_uvs, vertex_offset, builder) -> Blases:
+    """Compile each unique mesh of the (obj_id, Instance) ``items`` once."""
+    index, meshes, out = {}, [], []
+    voff = vertex_offset
+    for obj_id, inst in items:
+        key = id(inst.mesh)
+        if key not in index:
+            mesh = inst.mesh
+            material = np.array([mats.index(m) for m in mesh.materials], np.int64)
+            rec = mesh.device_records(material, obj_id, voff, any_normals, any_uvs)
+            voff += len(mesh.positions)
+            tree = build_scene_bvh({layout.PRIM_TRIANGLE: (rec.lo, rec.hi)}, builder)
+            order = tree.orders[layout.PRIM_TRIANGLE]
+            arrays = dict(rec.arrays)
+            arrays["tri_verts"], arrays["tri_shade"] = arrays["tri_verts"][order], arrays["tri_shade"][order]
+            nodes, depth = wide.collapse(tree.nodes)
+            index[key] = len(meshes)
+            meshes.append((mesh, arrays, nodes, depth, (rec.lo.min(0), rec.hi.max(0))))
+        out.append((obj_id, inst, index[key]))
+    return Blases(meshes, out, max((m[3] for m in meshes), default=0))
+
+
+def boxes(b: Blases):
+    """float32 (lo, hi) world boxes of the instances: the 8 corners of the mesh's box
+    through the instance matrix, rounded outward and padded by 2^-20 of their size and
+    position (the device moves rays, not boxes, in float32)."""
+    if not b.items:
+        return _EMPTY
+    lo, hi = np.zeros((len(b.items), 3)), np.zeros((len(b.items), 3))
+    for i, (_, inst, k) in enumerate(b.items):
+        blo, bhi = (np.asarray(x, np.float64) for x in b.meshes[k][4])
+        corners = np.array([[(bhi if (c >> a) & 1 else blo)[a] for a in range(3)] for c in range(8)])
+        m = inst.matrix()
+        w = corners @ m[:3, :3].T + m[:3, 3]
+        lo[i], hi[i] = w.min(0), w.max(0)
+    pad = 2.0 ** -20 * ((hi - lo).max(axis=1) + np.abs(lo).max(axis=1) + np.abs(hi).max(axis=1))[:, None]
+    return outward(lo - pad, hi + pad)
+
+
+def place(b: Blases, arrays, nodes, order):
+    """Append the BLASes' triangles (and vertex data) to ``arrays`` and their nodes to the
+    top-level ``nodes`` (child indices offset); the INSTANCE records in the top tree's leaf
+    order ``order``. Returns (nodes, instance records)."""
+    parts_nodes, roots = [nodes], []
+    node_base = len(nodes)
+    for mesh, rec, bn, _, _ in b.meshes:
+        tri_base = len(arrays["tri_verts"])
+        bn = bn.copy()
+        leaf = bn["count_kind"] != 0
+        empty = ~np.isfinite(bn["lo_x"])
+        bn["child"] = np.where(leaf, bn["child"] + np.uint32(tri_base),
+                               np.where(empty, bn["child"], bn["child"] + np.uint32(node_base)))
+        roots.append(node_base)
+        node_base += len(bn)
+        parts_nodes.append(bn)
+        for n in ("tri_verts", "tri_shade"):
+            arrays[n] = np.concatenate([arrays[n], rec[n]])
+        for n in ("normals", "uvs"):
+            if n in rec:
+                arrays[n] = np.concatenate([arrays.get(n, np.zeros(0, np.float32)),
+                                            np.asarray(rec[n], np.float32).ravel()])
+    rec = np.zeros(len(b.items), layout.INSTANCE)
+    for i, (obj_id, inst, k) in enumerate(b.items):
+        m = inst.matrix()
+        inv = np.linalg.inv(m)
+        r = rec[i]
+        r["o2w"], r["w2o"] = m[:3], inv[:3]
+        r["nrm"][:, :3] = inv[:3, :3].T
+        r["root"], r["object"] = roots[k], obj_id
+        r["det_sign"] = 1.0 if np.linalg.det(m[:3, :3]) > 0 else -1.0
+    return np.concatenate(parts_nodes), rec[order]
