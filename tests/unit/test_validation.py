@@ -195,7 +195,7 @@ def test_render_arguments(args, kw, match):
 @pytest.mark.parametrize("make, match", [
     (lambda: tx.Scene(lights=None), r"scene\.lights: expected a list, got None"),
     (lambda: tx.Scene(camera=None), r"scene\.camera: expected a texray\.Camera, got NoneType None"),
-    (lambda: tx.Scene(objects=["x"]), r"scene\.objects\[0\]: expected a texray Mesh, Sphere, Cylinder or Quad, "
+    (lambda: tx.Scene(objects=["x"]), r"scene\.objects\[0\]: expected a texray Mesh, Sphere, Cylinder, Quad or Instance, "
                                       r"got str 'x'"),
     (lambda: tx.Scene(lights=[(0, 1, 0)]), r"scene\.lights\[0\]: expected a texray\.PointLight"),
     (lambda: tx.Scene().add(None), r"scene\.add: expected a texray Mesh"),
