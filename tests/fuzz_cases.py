@@ -1228,10 +1228,16 @@ _MESH_VALUE_EDITS = [   # (code, must_reject reason or None)
     ("N = -N", None),
     ("N = N * 1e-40", None),
 ]
+# Edits that overwrite values an earlier edit made bad (P[:, 1] = 0 removes an inf in y; P[:] = P[0]
+# copies row 0 over the others): they void that array's earlier reasons.
+_OVERWRITING_EDITS = ("P[:, 1] = 0", "P[:] = P[0]", "UV[:] = 0.5", "N[:] = 0")
+
+
 def _edited(whys, edit, why):
-    """The (array, reason) list after ``edit``: one that replaces an array with None voids the
-    reasons of that array's earlier edits."""
-    if edit.endswith(" = None"):
+    """The (array, reason) list after ``edit``: one that replaces an array with None, or
+    overwrites its values (_OVERWRITING_EDITS), voids the reasons of that array's earlier
+    edits."""
+    if edit.endswith(" = None") or edit in _OVERWRITING_EDITS:
         whys = [(a, w) for a, w in whys if a != edit[0]]
     return whys + [(edit[0], why)]
 

@@ -1,5 +1,6 @@
 """OBJ files' own materials: the MTL statements texray reads (texray.io.mtl's rule), per-face
 materials from usemtl groups, and the errors and warnings for what it cannot use."""
+import re
 import warnings
 
 import numpy as np
@@ -129,8 +130,12 @@ def test_missing_texture_names_obj_material_and_path(tmp_path):
 
 def test_missing_library_and_undefined_material(tmp_path):
     (tmp_path / "q.obj").write_text(QUADS.format(lib="absent.mtl", a="x", b="y"))
-    with pytest.raises(tx.SceneError, match=r"q\.obj: mtllib: .*absent\.mtl does not exist"):
-        tx.Mesh.load(tmp_path / "q.obj")
+    with warnings.catch_warnings(record=True) as w:       # the geometry loads, grey, with one warning
+        warnings.simplefilter("always")
+        mesh = tx.Mesh.load(tmp_path / "q.obj")
+    msgs = [str(x.message) for x in w]
+    assert len(msgs) == 1 and re.search(r"q\.obj: mtllib: .*absent\.mtl does not exist", msgs[0]), msgs
+    assert all(m == tx.Material() for m in mesh.materials) and len(mesh.faces) == 4
     path = _obj(tmp_path, "newmtl left\nKd 0 1 0\n", b="undefined")
     with pytest.warns(UserWarning, match="usemtl 'undefined': not defined"):
         mesh = tx.Mesh.load(path)

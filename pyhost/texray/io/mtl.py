@@ -56,12 +56,15 @@ class _Entry:
 
 
 def read_mtl(path: Path, obj_path) -> dict[str, _Entry]:
-    """{material name: entry} of the library at ``path`` (an OBJ's ``mtllib``). A missing or
-    undecodable library is a SceneError naming the OBJ; unknown statements: one warning."""
+    """{material name: entry} of the library at ``path`` (an OBJ's ``mtllib``). A missing
+    library is a warning (its materials are the default), an undecodable one a SceneError
+    naming the OBJ; unknown statements: one warning."""
     try:
         text = path.read_bytes().decode("utf-8")
-    except FileNotFoundError:
-        raise SceneError(f"{obj_path}: mtllib: {path} does not exist") from None
+    except FileNotFoundError:      # an OBJ copied without its library: the geometry is still good
+        warnings.warn(f"{obj_path}: mtllib: {path} does not exist; its materials are the default grey",
+                      stacklevel=4)
+        return {}
     except UnicodeDecodeError as e:
         raise SceneError(f"{obj_path}: mtllib: {path} is not UTF-8 text (byte offset {e.start})") from None
     except OSError as e:
@@ -153,7 +156,7 @@ def to_materials(entries: dict, names, obj_path) -> list[Material]:
             out.append(Material())
             continue
         out.append(_material(e, obj_path, textures, unused))
-    if missing:
+    if missing and entries:       # (no library at all was warned about as such)
         warnings.warn(f"{obj_path}: usemtl {', '.join(map(repr, missing))}: not defined in the OBJ's "
                       "material libraries; the default material is used", stacklevel=4)
     if unused:
