@@ -66,6 +66,9 @@ class GltfMesh:
     normals: np.ndarray | None
     materials: list
     material_ids: np.ndarray
+    mesh_index: int = -1                  # the glTF mesh (nodes sharing one can be instances of it)
+    world: np.ndarray | None = None       # the node's 4x4 world matrix (positions = world x local)
+    local: object = None                  # the mesh in its own space (positions, faces, uvs, normals, ...)
 
 
 @dataclass
@@ -331,7 +334,7 @@ def _place(doc, ni, node, mi, world, local, notes):
     normals = None if local.normals is None else apply_normals(world, local.normals)
     return GltfMesh(name, apply_points(world, local.positions), np.ascontiguousarray(faces),
                     None if local.uvs is None else local.uvs.copy(), normals, list(local.materials),
-                    local.material_ids.copy())
+                    local.material_ids.copy(), mi, world, local)
 
 
 # --- cameras and lights ------------------------------------------------------------------

@@ -12,7 +12,7 @@ import warnings
 import numpy as np
 
 from ..errors import SceneError
-from ..scene import Camera, Mesh, PointLight, Scene
+from ..scene import Camera, Instance, Mesh, PointLight, Scene
 from .. import validate as V
 from .gltf import read_gltf
 
@@ -20,14 +20,15 @@ DEFAULT_WIDTH = 640
 HEADLIGHT_IRRADIANCE = 1.0     # the headlight's irradiance at the scene's centre, texray's units
 
 
-def load_gltf_scene(path, camera=None) -> Scene:
+def load_gltf_scene(path, camera=None, instances=True) -> Scene:
     """The Scene of a .gltf/.glb file. ``camera``: the name of the camera node to use (default
-    the first); a name the file does not have is an error listing those it has."""
+    the first); a name the file does not have is an error listing those it has.
+    ``instances``: nodes that share a glTF mesh become texray Instances of one Mesh (its
+    triangles stored once: texray.scene.instance); False copies the triangles per node."""
     g = read_gltf(path)
     if not g.meshes:
         raise SceneError(f"{path}: the file's scene has no triangle meshes")
-    objects = [Mesh(m.positions, m.faces, m.uvs, m.normals, material=list(m.materials), name=m.name,
-                    material_ids=m.material_ids) for m in g.meshes]
+    objects = _objects(g.meshes, instances)
     lo = np.min([m.positions.min(axis=0) for m in g.meshes], axis=0)
     hi = np.max([m.positions.max(axis=0) for m in g.meshes], axis=0)
     cam, aspect = _camera(g, camera, lo, hi, path)
@@ -44,6 +45,31 @@ def load_gltf_scene(path, camera=None) -> Scene:
     if aspect:
         scene.render_settings["aspect"] = float(aspect)    # texray render --width W alone keeps it
     return scene
+
+
+def _objects(meshes, instances):
+    """texray objects for the file's mesh nodes: a Mesh per node, or, for a glTF mesh that
+    several nodes place (with ``instances``), one Mesh in the mesh's own space and an
+    Instance of it per node, under the node's world matrix."""
+    uses = {}
+    for m in meshes:
+        uses[m.mesh_index] = uses.get(m.mesh_index, 0) + 1
+    shared, out = {}, []
+    for m in meshes:
+        # a mirroring node keeps its copy: the reader reverses its faces (glTF's front-face
+        # rule), which an instance of the unmirrored mesh would not
+        if (instances and m.local is not None and m.world is not None and uses[m.mesh_index] > 1
+                and np.linalg.det(m.world[:3, :3]) > 0):
+            if m.mesh_index not in shared:
+                loc = m.local
+                shared[m.mesh_index] = Mesh(loc.positions, loc.faces, loc.uvs, loc.normals,
+                                            material=list(loc.materials), material_ids=loc.material_ids,
+                                            name=f"{m.name.rsplit(': ', 1)[0]}: meshes[{m.mesh_index}]")
+            out.append(Instance(shared[m.mesh_index], transform=m.world, name=m.name))
+        else:
+            out.append(Mesh(m.positions, m.faces, m.uvs, m.normals, material=list(m.materials), name=m.name,
+                            material_ids=m.material_ids))
+    return out
 
 
 def _camera(g, name, lo, hi, path):
