@@ -35,6 +35,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..scene.bump import NormalMap
+from ..scene.heightfield import wrap_index
 from ..scene.mapping import UVTransform
 from ..scene.material import Material
 from ..scene.texture import Texture
@@ -135,18 +136,6 @@ def _floats(v):
 
 
 # --- numpy texture lookups (the bakes) ---------------------------------------------------
-def _wrap_index(i, n, mode):
-    """texture/wrap.h wrap_index, vectorized."""
-    if n <= 1:
-        return np.zeros_like(i)
-    if mode == "clamp":
-        return np.clip(i, 0, n - 1)
-    if mode == "mirror":
-        r = np.mod(i, 2 * n)
-        return np.where(r < n, r, 2 * n - 1 - r)
-    return np.mod(i, n)
-
-
 def bilinear(rgba, uv, wrap):
     """texture/texture.h's bilinear lookup of level 0 in numpy: ``rgba`` (H, W, C), row 0 =
     top, ``uv`` (..., 2) texray coordinates (v = 0 the bottom row), ``wrap`` a texray mode."""
@@ -157,8 +146,8 @@ def bilinear(rgba, uv, wrap):
     fx, fy = np.floor(x), np.floor(y)
     ax, ay = (x - fx)[..., None], (y - fy)[..., None]
     x0, y0 = fx.astype(np.int64), fy.astype(np.int64)
-    x0, x1 = _wrap_index(x0, w, wrap), _wrap_index(x0 + 1, w, wrap)
-    y0, y1 = _wrap_index(y0, h, wrap), _wrap_index(y0 + 1, h, wrap)
+    x0, x1 = wrap_index(x0, w, wrap), wrap_index(x0 + 1, w, wrap)
+    y0, y1 = wrap_index(y0, h, wrap), wrap_index(y0 + 1, h, wrap)
     a = np.asarray(rgba, dtype=np.float64)
     return (a[y0, x0] * (1 - ax) + a[y0, x1] * ax) * (1 - ay) + (a[y1, x0] * (1 - ax) + a[y1, x1] * ax) * ay
 

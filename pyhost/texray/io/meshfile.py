@@ -38,11 +38,13 @@ def read_mesh(path, materials=True) -> MeshData:
         if not g.meshes:
             raise SceneError(f"mesh: {path} contains no triangles")
         return merge_meshes(g.meshes, str(path), materials)
-    libs = _mtllibs(path) if kind == "obj" and materials else []
+    # the OBJ's text, read once for its mtllib and usemtl statements (undecodable: refused later)
+    text = path.read_bytes().decode("utf-8", "replace") if kind == "obj" and materials else ""
+    libs = _mtllibs(path, text)
     entries = {}
     for lib in libs:
         entries.update(read_mtl(lib, path))
-    names = _usemtl_names(path) if libs else None
+    names = _usemtl_names(text) if libs else None
     parts = _read_trimesh(path, kind, names)
     offsets = np.cumsum([0] + [len(p.positions) for p in parts])
     positions = np.concatenate([p.positions for p in parts])
@@ -82,10 +84,11 @@ def merge_meshes(meshes, name, materials=True) -> MeshData:
     return MeshData(positions, faces, uvs, normals, name, mats, np.concatenate(ids))
 
 
-def _mtllibs(path):
-    """The material libraries an OBJ names (``mtllib a.mtl b.mtl``), relative to the OBJ."""
+def _mtllibs(path, text):
+    """The material libraries the OBJ at ``path`` (its ``text``) names (``mtllib a.mtl b.mtl``),
+    relative to the OBJ."""
     libs = []
-    for line in path.read_bytes().decode("utf-8", "replace").splitlines():   # undecodable: refused later
+    for line in text.splitlines():
         if line.startswith("mtllib"):
             rest = line[len("mtllib"):].split("#", 1)[0].strip()
             names = [rest] if (path.parent / rest).exists() else rest.split()
@@ -102,9 +105,9 @@ class _Part(NamedTuple):
     material: str | None          # the material's name (OBJ: its usemtl)
 
 
-def _usemtl_names(path):
+def _usemtl_names(text):
     """Every material name an OBJ's usemtl statements give, in order of first use."""
-    names = re.findall(r"^[ \t]*usemtl[ \t]+(.+?)[ \t]*$", path.read_bytes().decode("utf-8", "replace"), re.M)
+    names = re.findall(r"^[ \t]*usemtl[ \t]+(.+?)[ \t]*$", text, re.M)
     return list(dict.fromkeys(names))
 
 
