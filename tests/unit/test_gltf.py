@@ -694,6 +694,7 @@ ERRORS = [
     ("required extension", lambda w, d: d.update(extensionsRequired=["KHR_draco_mesh_compression"]),
      r"extensionsRequired: 'KHR_draco_mesh_compression' is not supported"),
     ("version", lambda w, d: d["asset"].update(version="1.0"), r"asset\.version: '1\.0'"),
+    ("top-level type", lambda w, d: d.update(nodes="x"), r": nodes: expected an array, got 'x'"),
     ("sampler", lambda w, d: d.setdefault("samplers", [{"wrapS": 1234}]) and d["textures"][0].update(sampler=0),
      r"samplers\[0\]\.wrapS: 1234 is not a glTF wrapS"),
     ("zero scale", lambda w, d: d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"].update(
@@ -807,3 +808,14 @@ def test_uris_are_percent_decoded_relative_paths(tmp_path):
     w.json["images"][0]["uri"] = "http://example.invalid/x.png"
     with pytest.raises(tx.SceneError, match=r"images\[0\]\.uri: 'http://example\.invalid/x\.png': only relative"):
         read_gltf(w.write(sub / "u.gltf"))
+
+
+def test_a_bad_vertex_is_reported_as_the_file_stores_it(tmp_path):
+    """An identity node does not multiply the positions (NaN x 0 would smear the value)."""
+    w = gw.GltfWriter()
+    p = QUAD_P.copy()
+    p[1, 0] = np.nan
+    w.scene([w.node(mesh=w.mesh([w.primitive(p, QUAD_F)]))])
+    path = w.write(tmp_path / "nan.glb")
+    with pytest.raises(tx.SceneError, match=r"nan\.glb: positions: vertex 1 is \[nan, .*\] \(1 non-finite"):
+        tx.Mesh.load(path)

@@ -126,6 +126,7 @@ def test_missing_texture_names_obj_material_and_path(tmp_path):
         tx.Mesh.load(path)
     msg = str(e.value)
     assert "q.obj" in msg and "'left'" in msg and "map_Kd" in msg and "nowhere.png" in msg
+    assert msg.endswith("map_Kd " + str(tmp_path / "nowhere.png") + ": file not found"), msg
 
 
 def test_missing_library_and_undefined_material(tmp_path):

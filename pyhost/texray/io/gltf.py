@@ -332,7 +332,9 @@ def _place(doc, ni, node, mi, world, local, notes):
         return None
     faces = local.faces if det > 0 else local.faces[:, [0, 2, 1]]
     normals = None if local.normals is None else apply_normals(world, local.normals)
-    return GltfMesh(name, apply_points(world, local.positions), np.ascontiguousarray(faces),
+    # an identity node keeps the positions as stored: a bad value is reported as the file has it
+    positions = local.positions if np.array_equal(world, np.eye(4)) else apply_points(world, local.positions)
+    return GltfMesh(name, positions, np.ascontiguousarray(faces),
                     None if local.uvs is None else local.uvs.copy(), normals, list(local.materials),
                     local.material_ids.copy(), mi, world, local)
 

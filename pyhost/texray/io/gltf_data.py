@@ -79,16 +79,16 @@ class GltfDocument:
     def error(self, jpath, message):
         return SceneError(f"{self.label}: {jpath}: {message}")
 
-    def get(self, obj, key, jpath, kind, default=_MISSING):
+    def get(self, obj, key, jpath, kind, default=_MISSING):     # jpath "": the top level
         """obj[key] checked to be of ``kind`` ("int", "number", "str", "list", "dict", "bool");
         ``default`` when absent (no default: the key is required)."""
         if key not in obj:
             if default is _MISSING:
-                raise self.error(jpath, f"required {key!r} is missing")
+                raise self.error(jpath or "(top level)", f"required {key!r} is missing")
             return default
         value = obj[key]
         if not _is(value, kind):
-            raise self.error(f"{jpath}.{key}", f"expected {_KINDS[kind]}, got {V.show(value)}")
+            raise self.error(_join(jpath, key), f"expected {_KINDS[kind]}, got {V.show(value)}")
         return value
 
     def number(self, obj, key, jpath, default=_MISSING, lo=None, hi=None):
@@ -98,7 +98,7 @@ class GltfDocument:
         value = float(self.get(obj, key, jpath, "number"))
         if (lo is not None and value < lo) or (hi is not None and value > hi):
             a, b = ("-inf" if lo is None else format(lo, "g")), ("inf" if hi is None else format(hi, "g"))
-            raise self.error(f"{jpath}.{key}", f"{V.show(value)} is outside [{a}, {b}]")
+            raise self.error(_join(jpath, key), f"{V.show(value)} is outside [{a}, {b}]")
         return value
 
     def numbers(self, obj, key, jpath, n, default=_MISSING):
@@ -107,12 +107,12 @@ class GltfDocument:
             return default
         value = self.get(obj, key, jpath, "list")
         if len(value) != n or not all(_is(x, "number") for x in value):
-            raise self.error(f"{jpath}.{key}", f"expected {n} finite numbers, got {V.show(value)}")
+            raise self.error(_join(jpath, key), f"expected {n} finite numbers, got {V.show(value)}")
         return np.asarray(value, dtype=np.float64)
 
     def array(self, name):
         """The top-level array ``name`` ([] when absent)."""
-        return self.get(self.json, name, name, "list", [])
+        return self.get(self.json, name, "", "list", [])
 
     def item(self, name, index, jpath=None):
         """self.json[name][index] as a dict, ``index`` checked (``jpath`` names the reference)."""
@@ -130,9 +130,9 @@ class GltfDocument:
         """The index obj[key] into the top-level array ``name``, checked; ``default`` if absent."""
         if key not in obj:
             if default is _MISSING:
-                raise self.error(jpath, f"required {key!r} is missing")
+                raise self.error(jpath or "(top level)", f"required {key!r} is missing")
             return default
-        self.item(name, obj[key], f"{jpath}.{key}")
+        self.item(name, obj[key], _join(jpath, key))
         return obj[key]
 
     def name_of(self, name, index):
@@ -394,3 +394,8 @@ class Notes:
     def emit(self, stacklevel=3):
         for message in self.messages():
             warnings.warn(message, stacklevel=stacklevel)
+
+
+def _join(jpath, key):
+    """The JSON path of ``key`` inside ``jpath`` ("" for the top level)."""
+    return f"{jpath}.{key}" if jpath else key

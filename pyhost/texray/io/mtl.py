@@ -241,4 +241,5 @@ def _reason(err, path):
     """The part of a texture error after its file name (the caller names the file)."""
     msg = str(err)
     i = msg.find(str(path))
-    return msg[i + len(str(path)):].lstrip(": ") if i >= 0 else msg
+    rest = msg[i + len(str(path)):].lstrip(": ") if i >= 0 else ""
+    return rest or msg.rsplit(": ", 1)[0].rsplit(": ", 1)[-1]   # "...file: file not found: c.png" -> "file not found"
