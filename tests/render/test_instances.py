@@ -311,3 +311,30 @@ def test_scene_cache_round_trip(tmp_path, monkeypatch, device):
     again = tx.render(a, 32, 32, spp=1, device=device)
     assert (first.stats["scene_cache"], again.stats["scene_cache"]) == ("stored", "hit")
     np.testing.assert_array_equal(first.rgb, again.rgb)
+
+
+def test_moving_instances_rebuild_only_the_top_level(device, monkeypatch):
+    """A second compile with moved instances takes each BLAS from the first (no BLAS
+    build) and renders as a compile that built everything; a changed mesh is rebuilt."""
+    from texray.accel import scene_bvh
+    from texray.compile import instances as inst_blas
+    monkeypatch.setattr(inst_blas, "_TREES", type(inst_blas._TREES)())
+    calls = []
+    real = inst_blas.build_scene_bvh
+    monkeypatch.setattr(inst_blas, "build_scene_bvh", lambda *a, **k: calls.append(1) or real(*a, **k))
+    a, _ = _pair(n=4)
+    first = tx.render(a, W, H, spp=1, device=device, cache=False)
+    assert len(calls) == 1 and first.stats["blas_reused"] == 0
+    for i, obj in enumerate(a.objects):                 # the next frame: every instance moved
+        obj.transform = tx.Transform(translate=(0.1 * i, -0.2, 0.05 * i)).matrix() @ obj.matrix()
+    moved = tx.render(a, W, H, spp=1, device=device, cache=False)
+    assert len(calls) == 1 and moved.stats["blas_reused"] == 1
+    inst_blas._TREES.clear()
+    fresh = tx.render(a, W, H, spp=1, device=device, cache=False)
+    assert len(calls) == 2 and fresh.stats["blas_reused"] == 0
+    assert np.array_equal(moved.rgb, fresh.rgb) and not np.array_equal(moved.rgb, first.rgb)
+    mesh = a.objects[0].mesh
+    mesh.positions = mesh.positions * np.float32(1.1)   # a changed mesh: its boxes differ
+    tx.render(a, W, H, spp=1, device=device, cache=False)
+    assert len(calls) == 3
+    assert scene_bvh.build_scene_bvh is real

@@ -1,9 +1,16 @@
 """The bottom level of the two-level BVH: each mesh that instances share is compiled once
 (its triangles in the mesh's own world space, one 4-wide BLAS) and appended to the
 scene's triangle and node arrays; each texray.Instance becomes one layout.INSTANCE
-record and one box (its BLAS root's box through its matrix) in the top-level tree."""
+record and one box (its BLAS root's box through its matrix) in the top-level tree.
+
+Moving instances rebuilds only the top level: each BLAS's tree (its leaf order and
+wide nodes) is kept in this process, keyed by a hash of exactly what its build reads
+(the triangles' float32 boxes and the builder), so compiling the scene again with new
+instance matrices (the frames of an animation) builds no BLAS twice."""
 from __future__ import annotations
 
+import hashlib
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,6 +21,10 @@ from ..device import layout
 from ..scene.shape import outward
 
 _EMPTY = (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32))
+# The BLAS trees kept for the next compile: {key: (leaf order, wide nodes, depth)}, least
+# recently used first, bounded by the bytes they hold.
+_TREES: OrderedDict = OrderedDict()
+TREE_CACHE_BYTES = 512 << 20
 
 
 @dataclass
@@ -22,12 +33,13 @@ class Blases:
     meshes: list          # [(mesh, records dict, wide nodes, depth)] per unique mesh
     items: list           # [(obj_id, instance, mesh index)]
     depth: int = 0        # the deepest BLAS, in wide levels
+    reused: int = 0       # BLAS trees taken from an earlier compile (not rebuilt)
 
 
 def build(items, mats, any_normals, any_uvs, vertex_offset, builder) -> Blases:
     """Compile each unique mesh of the (obj_id, Instance) ``items`` once."""
     index, meshes, out = {}, [], []
-    voff = vertex_offset
+    voff, reused = vertex_offset, 0
     for obj_id, inst in items:
         key = id(inst.mesh)
         if key not in index:
@@ -35,15 +47,34 @@ def build(items, mats, any_normals, any_uvs, vertex_offset, builder) -> Blases:
             material = np.array([mats.index(m) for m in mesh.materials], np.int64)
             rec = mesh.device_records(material, obj_id, voff, any_normals, any_uvs)
             voff += len(mesh.positions)
-            tree = build_scene_bvh({layout.PRIM_TRIANGLE: (rec.lo, rec.hi)}, builder)
-            order = tree.orders[layout.PRIM_TRIANGLE]
+            (order, nodes, depth), hit = _tree(rec.lo, rec.hi, builder)
+            reused += hit
             arrays = dict(rec.arrays)
             arrays["tri_verts"], arrays["tri_shade"] = arrays["tri_verts"][order], arrays["tri_shade"][order]
-            nodes, depth = wide.collapse(tree.nodes)
             index[key] = len(meshes)
             meshes.append((mesh, arrays, nodes, depth, (rec.lo.min(0), rec.hi.max(0))))
         out.append((obj_id, inst, index[key]))
-    return Blases(meshes, out, max((m[3] for m in meshes), default=0))
+    return Blases(meshes, out, max((m[3] for m in meshes), default=0), reused)
+
+
+def _tree(lo, hi, builder):
+    """((leaf order, wide nodes, depth), whether it was kept from an earlier compile) of
+    the BLAS over the float32 triangle boxes (lo, hi). The arrays are shared with the
+    cache: callers index and copy them, never write them."""
+    h = hashlib.blake2b(digest_size=20)
+    for part in (str(builder).encode(), np.ascontiguousarray(lo), np.ascontiguousarray(hi)):
+        h.update(part)
+    key = (h.digest(), lo.shape)
+    if key in _TREES:
+        _TREES.move_to_end(key)
+        return _TREES[key], True
+    tree = build_scene_bvh({layout.PRIM_TRIANGLE: (lo, hi)}, builder)
+    nodes, depth = wide.collapse(tree.nodes)
+    entry = (tree.orders[layout.PRIM_TRIANGLE], nodes, depth)
+    _TREES[key] = entry
+    while len(_TREES) > 1 and sum(e[0].nbytes + e[1].nbytes for e in _TREES.values()) > TREE_CACHE_BYTES:
+        _TREES.popitem(last=False)
+    return entry, False
 
 
 def boxes(b: Blases):

@@ -61,6 +61,7 @@ class CompiledScene:
     texture_names: tuple = ()             # the textures' names, for error messages
     instances: np.ndarray | None = None   # layout.INSTANCE, top-level leaf order (kernels/accel/instance.h)
     steps_s: dict | None = None           # seconds of each step of compile_scene (image.stats["compile_steps_s"])
+    blas_reused: int = 0                  # instanced meshes whose BLAS came from an earlier compile (instances.py)
 
     def device_bytes(self) -> dict[str, int]:
         """Bytes each uploaded array takes on the device (absent or empty arrays are not uploaded)."""
@@ -259,4 +260,4 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
         wide_depth=wide_depth, camera=copy.deepcopy(scene.camera),
         objects_generic=objects_generic, instances=instances,
         texture_names=tuple(sorted({t.name for o in scene.objects for m in materials_of(o) for t in m.textures})),
-        steps_s=steps)
+        steps_s=steps, blas_reused=blases.reused if blases is not None else 0)

@@ -171,6 +171,7 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         "bvh_binary_nodes": int(len(cs.bvh.nodes)), "bvh_binary_depth": cs.bvh.depth,
         "bvh_build_s": cs.bvh.build_seconds, "sah_cost": cs.bvh.sah_cost,
         "scene_compile_s": t_compiled - t_start, "compile_steps_s": dict(cs.steps_s or {}),
+        "blas_reused": cs.blas_reused,
         "program_build_s": t_built - t_compiled,
         "render_s": t_end - t_built, "upload_s": t_uploaded - t_built, "total_s": t_end - t_start,
         "stage_s": stage_s,
