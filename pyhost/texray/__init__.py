@@ -17,12 +17,12 @@ images) and ``bench`` (``texray bench``).
 from .device import DeviceInfo, devices
 from .errors import BuildError, DeviceError, SceneError, TexrayError
 from .io.scenefile import load_scene
-from .renderer import Image, render, render_to_file
+from .renderer import Image, render, render_frames, render_to_file
 from .scene import (Bump, Camera, Cylinder, Displacement, Instance, Label, Material, Mesh, NormalMap, PointLight,
                     Projection, Quad, Scene, Sphere, Texture, Transform, UVTransform)
 
 __all__ = ["Bump", "Displacement", "NormalMap", "BuildError", "Camera", "Cylinder", "DeviceError", "DeviceInfo",
            "Image", "Instance", "Label", "Material", "Mesh", "PointLight", "Projection", "Quad", "Scene", "SceneError",
            "Sphere", "TexrayError", "Texture", "Transform", "UVTransform", "devices", "load_scene", "render",
-           "render_to_file"]
+           "render_frames", "render_to_file"]
 __version__ = "0.1.0"

@@ -13,6 +13,7 @@ from .device import devices
 from .errors import TexrayError
 from .io.images import write_exr_layers
 from .renderer import render
+from .renderer.distributed import add_cluster_arguments, cluster_client
 from .scene import Scene
 
 
@@ -77,8 +78,9 @@ def _cmd_render(args):
     device = int(args.device) if args.device is not None and args.device.isdigit() else args.device
     bar = _Progress()
     try:
-        image = render(scene, width=width, height=height, spp=spp, device=device, seed=seed, progress=bar,
-                       aovs=tuple(args.aov or ()), adaptive=adaptive, cache=not args.no_cache)
+        with cluster_client(args.scheduler, args.workers) as client:
+            image = render(scene, width=width, height=height, spp=spp, device=device, seed=seed, progress=bar,
+                           aovs=tuple(args.aov or ()), adaptive=adaptive, cache=not args.no_cache, client=client)
     finally:
         bar.close()
     image.save(args.output)
@@ -93,6 +95,11 @@ def _cmd_render(args):
           f"render {s['render_s']:.2f} s (program build {s['program_build_s']:.2f} s, "
           f"scene {s['scene_compile_s']:.2f} s); device memory {sum(db.values()) / 2**20:.1f} MiB scene "
           f"(textures {db.get('texels', 0) / 2**20:.1f}) + {s['ray_buffer_bytes'] / 2**20:.1f} MiB rays")
+    if "dask" in s:
+        d = s["dask"]
+        shipped = f"{d['ship_bytes'] / 2**20:.1f} MiB in {d['ship_s']:.2f} s" if d["shipped"] else "held from before"
+        print(f"  on Dask: {d['bands']} bands of {d['band_rows']} rows over {d['workers']} workers "
+              f"(median band {d['task_s_median']:.2f} s); scene: {shipped}")
 
 
 def _cmd_cache(args):
@@ -147,6 +154,7 @@ def main(argv=None):
                    help="also write this AOV (repeatable): uv, position, normal, shading_normal, depth, "
                         "primitive_id, object_id, dpdu, dpdv; into OUT if it is .exr, else OUT.aov.exr "
                         "(default: none)")
+    add_cluster_arguments(r)
     r.add_argument("--no-cache", action="store_true",
                    help="compile the scene here, neither reading nor writing the scene cache (see 'texray cache')")
     r.set_defaults(func=_cmd_render)

@@ -4,6 +4,7 @@ accepts OpenCL C 3.0 too; building as 1.2 with -Werror keeps what only a newer o
 laxer compiler accepts (the generic address space, implicit conversions it warns
 about) out of the code that must also build on NVIDIA, AMD and Intel drivers."""
 import dataclasses
+import os
 
 import pyopencl as cl
 import pytest
@@ -13,6 +14,10 @@ from texray.device.features import Features, compile_options
 
 @pytest.mark.parametrize("which", ["generic", "lean"])
 def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
+    if which == "generic" and "Intel" in any_rt.device.platform.name and not os.environ.get("TEXRAY_TEST_SLOW_BUILDS"):
+        # 64-77 s on Intel's runtime (the README's "Default device"), a twentieth of the CI budget:
+        # its specialized programs are built by the other portability tests; TEXRAY_TEST_SLOW_BUILDS=1 runs it.
+        pytest.skip("the generic program on Intel's runtime takes over a minute; TEXRAY_TEST_SLOW_BUILDS=1 builds it")
     f = Features.generic() if which == "generic" else dataclasses.replace(
         Features(), shadows=False, max_lights=1, stack_size=32)
     prg = any_rt.program(compile_options(f), extra_options=("-Werror",))

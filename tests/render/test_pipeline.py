@@ -7,11 +7,9 @@ import numpy as np
 import pytest
 
 import texray as tx
-import importlib
 from texray.errors import SceneError
-from texray.renderer import render
+from texray.renderer import render, tiling
 
-render_mod = importlib.import_module("texray.renderer.render")
 
 SCENES = ["bench/globe.toml", "bench/mixed.toml", "bench/brick_wall.toml", "roles/roles.toml",
           "bump/normal_mesh.toml", "mappings/projection.toml"]
@@ -30,7 +28,8 @@ def test_fused_equals_staged(device, scenes_dir, path):
 def test_fused_launch_splits_and_tiles(device, scenes_dir, monkeypatch):
     scene = tx.Scene.load(scenes_dir / "bench/mixed.toml")
     ref = render(scene, 32, 24, 5, device=device, pipeline="stages", aovs=("depth",))
-    monkeypatch.setattr(render_mod, "MAX_FUSED_SAMPLES", 32 * 8 * 2)    # 2 samples per launch
+    # 2 samples per launch: the image's own tile (all 32 x 24 pixels) decides, not tile_pixels
+    monkeypatch.setattr(tiling, "MAX_FUSED_SAMPLES", 32 * 24 * 2)
     seen = []
     img = render(scene, 32, 24, 5, device=device, tile_pixels=32 * 8, aovs=("depth",), progress=seen.append)
     assert img.stats["tiles"] == 3 and len(img.stats["stage_s"]) == 4

@@ -42,3 +42,23 @@ def test_stopping_rule_is_relative_with_a_dark_floor_and_dilated():
 def test_round_sizes():
     assert [A.round_size(s) for s in (1, 4, 8, 16, 64, 1024)] == [1, 4, 8, 8, 8, 128]
 
+
+
+def test_the_dilation_stays_within_a_block_of_rows():
+    """A noisy pixel keeps its neighbours in its own block of BLOCK_ROWS rows sampling,
+    not those across the block's edge: a pixel's samples depend on its block only."""
+    B, width = A.BLOCK_ROWS, 5
+    rows = 2 * B
+    mean, se = np.full(rows * width, 0.5), np.full(rows * width, 0.0)
+    se[(B - 1) * width + 2] = 1.0                  # the last row of the first block
+    act = A.still_active(mean, se, 0.01, rows, width).reshape(rows, width)
+    want = np.zeros((rows, width), bool)
+    want[B - 2:B, 1:4] = True                      # not row B: the next block
+    np.testing.assert_array_equal(act, want)
+    # the same tile seen from a band that starts at the second block: rows are image rows
+    act2 = A.still_active(mean[B * width:], se[B * width:], 0.01, B, width, y0=B).reshape(B, width)
+    assert not act2.any()
+    se3 = np.zeros(B * width)
+    se3[0 * width + 2] = 1.0                       # the band's first row: nothing above it in its block
+    act3 = A.still_active(mean[:B * width], se3, 0.01, B, width, y0=B).reshape(B, width)
+    assert act3[:2, 1:4].all() and act3.sum() == 6

@@ -8,6 +8,7 @@ figure measures: :mod:`texray.bench`.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import platform
 import subprocess
@@ -18,6 +19,7 @@ from pathlib import Path
 from .. import __version__
 from ..compile import compile_scene
 from ..device import devices, select_device
+from ..renderer.distributed import add_cluster_arguments, cluster_client
 from ..scene import Scene
 from .compare_peers import bench_peers
 from .rays import bench_bvh, bench_mesh_scene, bench_rays
@@ -83,6 +85,7 @@ def main(argv=None):
     ap.add_argument("--local-sizes", default="", help="work-group sizes to time on the mixed scene, "
                                                       "e.g. 0,16,32,64,128 (0 = driver's choice)")
     ap.add_argument("--peers", action="store_true", help="also run the peers (pip install texray[peers])")
+    add_cluster_arguments(ap)      # --scheduler / --workers: the sweeps' configurations run as Dask tasks
     ap.add_argument("--json", default=None, metavar="PATH",
                     help="also write the results as JSON here, for --compare and --from-json (default: no file)")
     ap.add_argument("--report", default=None, help="also write a markdown report here")
@@ -126,6 +129,8 @@ def main(argv=None):
         out.write(f"program variants to render all {len(all_scenes)} scenes in scenes/: "
                   f"{len(results['variants'])}\n")
     loaded = {}
+    stack = contextlib.ExitStack()
+    client = stack.enter_context(cluster_client(args.scheduler, args.workers)) if sweep_paths else None
 
     def scene_of(name, path):
         if name not in loaded:
@@ -133,41 +138,44 @@ def main(argv=None):
             loaded[name] = (sc, compile_scene(sc))
         return loaded[name]
 
-    for dev in chosen:
-        dname = select_device(dev).name.strip()
-        r = results["devices"][dname] = {"scenes": {}, "builds": {}, "sweeps": {}}
-        work = None
-        if args.rays:
-            r["rays"], work = bench_rays(cs_mesh, mesh_scene, dev, args.rays, args.repeat)
-        for name, path in paths.items():
-            sc, cs = scene_of(name, path)
-            settings = getattr(sc, "render_settings", {})
-            w, h = size or (settings.get("width", 640), settings.get("height", 480))
-            spp = args.spp or settings.get("spp", 4)
-            out.write(f"  {name}: {w}x{h} {spp} spp...\n")
-            out.flush()
-            r["scenes"][name] = bench_scene(sc, cs, dev, w, h, spp, args.repeat, generic=not args.no_generic)
-            if not args.no_build:
-                r["builds"][name] = build_times(path, dev, generic=not args.no_generic)
-        for name, path in sweep_paths.items():
-            sc, cs = scene_of(name, path)
-            ref = "the tessellated reference" if displaced(sc) else f"reference {args.ref_spp} spp"
-            out.write(f"  sweep {name}: {sweep_w}x{sweep_h}, {ref}...\n")
-            out.flush()
-            r["sweeps"][name] = sweep_scene(sc, cs, dev, sweep_w, sweep_h, args.repeat, args.ref_spp,
-                                            _csv_ints(args.sweep_spp, "--sweep-spp"))
-        if args.local_sizes:
-            sc, cs = scene_of("mixed", suite_paths(["mixed"])["mixed"])
-            sizes = _csv_ints(args.local_sizes, "--local-sizes")
-            w, h = size or (640, 480)
-            r["local_sizes"] = {"scene": "mixed", "size": f"{w}x{h}", "spp": 4,
-                                "frame_s": local_size_sweep(sc, cs, dev, w, h, 4, args.repeat, sizes)}
-        if args.peers:
-            peer_scenes = list(suite_paths(["globe", "grazing_quad", "brick_wall", "textured_meshes"]).values())
-            measured = (r["rays"], work, results["bvh"]["scene_compile_s"]) if work is not None else None
-            r["peers"] = bench_peers(dev, args.repeat, args.triangles, args.rays or 1024, peer_scenes,
-                                     measured=measured)
-        print_device(dname, r, out)
+    try:
+        for dev in chosen:
+            dname = select_device(dev).name.strip()
+            r = results["devices"][dname] = {"scenes": {}, "builds": {}, "sweeps": {}}
+            work = None
+            if args.rays:
+                r["rays"], work = bench_rays(cs_mesh, mesh_scene, dev, args.rays, args.repeat)
+            for name, path in paths.items():
+                sc, cs = scene_of(name, path)
+                settings = getattr(sc, "render_settings", {})
+                w, h = size or (settings.get("width", 640), settings.get("height", 480))
+                spp = args.spp or settings.get("spp", 4)
+                out.write(f"  {name}: {w}x{h} {spp} spp...\n")
+                out.flush()
+                r["scenes"][name] = bench_scene(sc, cs, dev, w, h, spp, args.repeat, generic=not args.no_generic)
+                if not args.no_build:
+                    r["builds"][name] = build_times(path, dev, generic=not args.no_generic)
+            for name, path in sweep_paths.items():
+                sc, cs = scene_of(name, path)
+                ref = "the tessellated reference" if displaced(sc) else f"reference {args.ref_spp} spp"
+                out.write(f"  sweep {name}: {sweep_w}x{sweep_h}, {ref}...\n")
+                out.flush()
+                r["sweeps"][name] = sweep_scene(sc, cs, dev, sweep_w, sweep_h, args.repeat, args.ref_spp,
+                                                _csv_ints(args.sweep_spp, "--sweep-spp"), client=client)
+            if args.local_sizes:
+                sc, cs = scene_of("mixed", suite_paths(["mixed"])["mixed"])
+                sizes = _csv_ints(args.local_sizes, "--local-sizes")
+                w, h = size or (640, 480)
+                r["local_sizes"] = {"scene": "mixed", "size": f"{w}x{h}", "spp": 4,
+                                    "frame_s": local_size_sweep(sc, cs, dev, w, h, 4, args.repeat, sizes)}
+            if args.peers:
+                peer_scenes = list(suite_paths(["globe", "grazing_quad", "brick_wall", "textured_meshes"]).values())
+                measured = (r["rays"], work, results["bvh"]["scene_compile_s"]) if work is not None else None
+                r["peers"] = bench_peers(dev, args.repeat, args.triangles, args.rays or 1024, peer_scenes,
+                                         measured=measured)
+            print_device(dname, r, out)
+    finally:
+        stack.close()
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=1, default=str))
         out.write(f"\nwrote {args.json}\n")

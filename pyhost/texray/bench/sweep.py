@@ -108,36 +108,56 @@ def series_for(scene, compiled, spp_values=SPP_VALUES, filter_spp=FILTER_SPP):
 
 
 def sweep_scene(scene, compiled, device, width, height, repeat, ref_spp=256, spp_values=SPP_VALUES,
-                filter_spp=FILTER_SPP):
+                filter_spp=FILTER_SPP, client=None):
     """{"reference": ..., "series": {name: [point]}}, point = label, settings, time, errors.
     A displaced scene is swept by :func:`sweep_displacement` (``ref_spp``, ``spp_values`` and
-    ``filter_spp`` do not apply)."""
+    ``filter_spp`` do not apply). client: a dask.distributed.Client: the reference renders
+    in bands on the cluster and each point is a task (its times are its worker's)."""
     if displaced(scene):
-        return sweep_displacement(scene, device, width, height, repeat)
+        return sweep_displacement(scene, device, width, height, repeat, client)
     ref_kw = {"texture_filter": "bilinear"} if compiled.textures is not None else {}
     ref_scene = with_bump_delta(scene, "analytic") if _bumps(scene) else scene
-    ref = render(ref_scene, width, height, ref_spp, device=device, seed=12345, **ref_kw)
+    ref = render(ref_scene, width, height, ref_spp, device=device, seed=12345, client=client, **ref_kw)
     if _bumps(scene):
         ref_kw = dict(ref_kw, bump="analytic")
     result = {"width": width, "height": height, "ref_spp": ref_spp, "reference_s": ref.stats["render_s"],
               "reference_settings": ref_kw, "series": {}}
-    for name, points in series_for(scene, compiled, spp_values, filter_spp):
-        rows = []
-        for label, kw in points:
-            setting, kw = dict(kw), dict(kw)
-            spp = kw.pop("spp")
-            sc = with_bump_delta(scene, kw.pop("bump_texels")) if "bump_texels" in kw else scene
-            render(sc, width, height, spp, device=device, **kw)      # warm-up (program build)
-            times, img, samples = [], None, None
-            for i in range(repeat):
-                r = render(sc, width, height, spp, device=device, seed=i, **kw)
-                times.append(r.stats["render_s"])
-                if img is None:
-                    img, samples = r.rgb, r.stats["samples"]
-            rows.append({"label": label, **setting, "frame_s": median_spread(times),
-                         "mean_spp": samples / (width * height), **error_metrics(img, ref.rgb)})
-        result["series"][name] = rows
+    series = series_for(scene, compiled, spp_values, filter_spp)
+    points = [kw for _, pts in series for _, kw in pts]
+    measured = iter(run_points(sweep_point, (scene, width, height, device, repeat, ref.rgb), points, client))
+    for name, pts in series:
+        result["series"][name] = [{"label": label, **kw, **next(measured)} for label, kw in pts]
     return result
+
+
+def sweep_point(scene, width, height, device, repeat, ref_rgb, kw):
+    """One setting ``kw`` of a sweep: its frame time (median of ``repeat`` renders after a
+    warm-up), mean samples per pixel and errors against the reference."""
+    kw = dict(kw)
+    spp = kw.pop("spp")
+    sc = with_bump_delta(scene, kw.pop("bump_texels")) if "bump_texels" in kw else scene
+    render(sc, width, height, spp, device=device, **kw)      # warm-up (program build)
+    times, img, samples = [], None, None
+    for i in range(repeat):
+        r = render(sc, width, height, spp, device=device, seed=i, **kw)
+        times.append(r.stats["render_s"])
+        if img is None:
+            img, samples = r.rgb, r.stats["samples"]
+    return {"frame_s": median_spread(times), "mean_spp": samples / (width * height), **error_metrics(img, ref_rgb)}
+
+
+def run_points(func, shared, points, client=None):
+    """[func(*shared, point) for point in points], here or, with a Dask client, as one
+    task per point (the shared arguments sent to every worker once), in order."""
+    if client is None:
+        return [func(*shared, p) for p in points]
+    held = [client.scatter(a, broadcast=True, hash=False) if isinstance(a, (Scene, np.ndarray)) else a
+            for a in shared]
+    futures = [client.submit(func, *held, p, pure=False) for p in points]
+    try:
+        return client.gather(futures)
+    finally:
+        client.cancel(futures + [h for h in held if hasattr(h, "key")])
 
 
 def plot(sweeps, path):
@@ -247,7 +267,7 @@ DISP_REF_RESOLUTION = 4
 DISP_REFERENCE = f"tessellate ({DISP_REF_RESOLUTION} vertices/texel)"
 
 
-def sweep_displacement(scene, device, width, height, repeat):
+def sweep_displacement(scene, device, width, height, repeat, client=None):
     """Every setting of :func:`displacement_series` against the tessellated reference, at 1
     spp through pixel centres. Per point: ``frame_s``, end to end (scene compile with the
     host tessellation, BVH build, upload, render: what a user waits for) over ``repeat``
@@ -261,20 +281,9 @@ def sweep_displacement(scene, device, width, height, repeat):
     t0 = time.perf_counter()
     ref = render(ref_scene, width, height, 1, device=device, jitter=False, aovs=("depth", "object_id"))
     ref_s = time.perf_counter() - t0
-    points = {}
-    for name, pts in series:
-        for label, kw in pts:
-            kw = dict(kw)
-            sc = with_displacement(scene, kw.pop("method"), **kw)
-            first = render(sc, width, height, 1, device=device, jitter=False, aovs=("depth", "object_id"))
-            render(sc, width, height, 1, device=device, jitter=False)     # warm-up: the program without AOVs
-            wall, dev = [], []
-            for _ in range(repeat):
-                t0 = time.perf_counter()
-                r = render(sc, width, height, 1, device=device, jitter=False)     # compiles the scene anew
-                wall.append(time.perf_counter() - t0)
-                dev.append(r.stats["render_s"])
-            points[label] = (first, median_spread(wall), median_spread(dev))
+    settings = [kw for _, pts in series for _, kw in pts]
+    measured = iter(run_points(displacement_point, (scene, width, height, device, repeat), settings, client))
+    points = {label: next(measured) for _, pts in series for label, _ in pts}
     result = {"kind": "displacement", "width": width, "height": height, "ref_spp": 1, "reference": DISP_REFERENCE,
               "reference_s": ref_s, "reference_device_mib": _mib(ref), "series": {}}
     for name, pts in series:
@@ -285,6 +294,23 @@ def sweep_displacement(scene, device, width, height, repeat):
                          **error_metrics(img.rgb, ref.rgb), "wrong_hit": _wrong_hits(img, ref)})
         result["series"][name] = rows
     return result
+
+
+def displacement_point(scene, width, height, device, repeat, kw):
+    """One setting of the displacement sweep: (its first image, with the depth and object
+    AOVs; median wall time; median device time)."""
+    kw = dict(kw)
+    sc = with_displacement(scene, kw.pop("method"), **kw)
+    first = render(sc, width, height, 1, device=device, jitter=False, aovs=("depth", "object_id"))
+    render(sc, width, height, 1, device=device, jitter=False)     # warm-up: the program without AOVs
+    wall, dev = [], []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        r = render(sc, width, height, 1, device=device, jitter=False)     # compiles the scene anew
+        wall.append(time.perf_counter() - t0)
+        dev.append(r.stats["render_s"])
+    first.stats = {"device_bytes": first.stats["device_bytes"]}      # what the table reads
+    return first, median_spread(wall), median_spread(dev)
 
 
 def _mib(img):

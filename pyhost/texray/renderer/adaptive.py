@@ -14,6 +14,12 @@ The estimate of a pixel can be wrong when its first samples all missed a small
 feature; a pixel keeps sampling while any of its 3x3 neighbours does (a dilation
 of the unconverged set), so that an edge or highlight seen by one pixel keeps its
 neighbours sampling too. Pixels stop at ``spp`` samples whatever their error.
+
+The neighbours are those of the pixel's block of BLOCK_ROWS image rows (rows
+y // BLOCK_ROWS alike): tiles hold whole blocks, so what a pixel takes depends on
+its block alone, never on how the image is tiled, and a band of whole blocks
+rendered alone (a Dask task) equals those rows of the whole image. (A tile smaller
+than a block, under a tiny memory limit, dilates within the tile.)
 """
 from __future__ import annotations
 
@@ -22,6 +28,7 @@ import numpy as np
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722], np.float32)    # Rec. 709, what the device accumulates
 FLOOR = 0.1          # mean luminance below which the error is measured absolutely (threshold * FLOOR)
 MIN_SAMPLES = 8      # the first round: enough samples for a variance estimate
+BLOCK_ROWS = 16      # image rows whose pixels see each other's state (the dilation's unit)
 
 
 def round_size(spp: int) -> int:
@@ -39,13 +46,16 @@ def standard_error(sum_rgb, sum_y2, n):
     return mean, np.sqrt(var / n)
 
 
-def still_active(mean, se, threshold, rows, width):
-    """Boolean (rows * width,) mask of the pixels to keep sampling: not converged, or
-    next to one that is not (3x3 dilation on the tile's grid)."""
+def still_active(mean, se, threshold, rows, width, y0=0):
+    """Boolean (rows * width,) mask of the pixels of the tile of ``rows`` rows from image
+    row ``y0`` to keep sampling: not converged, or next to one that is not (3x3 dilation
+    within each block of BLOCK_ROWS image rows)."""
     open_ = (se > threshold * np.maximum(mean, FLOOR)).reshape(rows, width)
-    p = np.pad(open_, 1)
-    grown = np.zeros_like(open_)
-    for dy in (0, 1, 2):
-        for dx in (0, 1, 2):
-            grown |= p[dy:dy + rows, dx:dx + width]
+    y = y0 + np.arange(rows)
+    first, last = (y % BLOCK_ROWS == 0)[:, None], (y % BLOCK_ROWS == BLOCK_ROWS - 1)[:, None]
+    p = np.pad(open_, ((0, 0), (1, 1)))
+    across = p[:, :-2] | p[:, 1:-1] | p[:, 2:]              # the row's own 1x3 neighbourhood
+    grown = across.copy()
+    grown[1:] |= across[:-1] & ~first[1:]                    # the row above, within the block
+    grown[:-1] |= across[1:] & ~last[:-1]                    # the row below, within the block
     return grown.ravel()

@@ -1,4 +1,6 @@
-"""Rendering: upload a compiled scene once, then run the kernels per tile and sample.
+"""Rendering: check the settings, compile the scene (or take it from the scene cache),
+build its program and run it on a device (:mod:`.frame`) or on a Dask cluster
+(:mod:`.distributed`).
 
 The fused pipeline (the default) runs raygen -> intersect -> surface -> shadow ->
 shade in one kernel per pixel and sample (kernels/stages/fused.cl); the staged one
@@ -7,7 +9,7 @@ them, so that each stage is timed on its own; both give the same image. Tiles ar
 bands of whole rows (:mod:`.tiling`), small enough that a launch never runs long
 enough to trip a GPU display watchdog and that the per-ray buffers fit the device;
 the image is read back tile by tile, so device memory does not grow with the image
-size.
+size. Neither the tiles nor a band's place change a pixel (:mod:`.frame`).
 """
 from __future__ import annotations
 
@@ -15,30 +17,27 @@ import dataclasses
 import time
 
 import numpy as np
-import pyopencl as cl
 
 from ..compile import CompiledScene, cache as scene_cache
 from ..compile.textures import check_device_limits
 from ..device import layout, runtime
-from ..device.buffers import Uploaded
 from ..device.features import compile_options, generic_features
-from ..errors import DeviceError, SceneError
+from ..errors import SceneError
 from ..io.images import ScanlineWriter
-from ..scene import Scene
+from ..scene import Camera, Scene
 from .. import validate as V
-from .adaptive import round_size, standard_error, still_active
+from . import distributed
+from .adaptive import BLOCK_ROWS
+from .frame import PIPELINES, RAY_BYTES, render_rows
 from .image import Image, check_host_memory, host_image_bytes
-from .tiling import MAX_FUSED_SAMPLES, plan_rows
 
-STAGES = ("raygen", "intersect", "surface", "shadow", "shade")
-PIPELINES = ("fused", "stages")
-# Bytes per in-flight ray besides the shadow bytes: Ray + Hit + Surface + accumulator.
-RAY_BYTES = layout.RAY.itemsize + layout.HIT.itemsize + layout.SURFACE.itemsize + 16
+__all__ = ["RAY_BYTES", "prepare", "render", "render_to_file", "scene_stats"]
 
 
 def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=True, shadows=True,
            aovs=(), specialize=True, local_size=None, memory_limit=None, tile_pixels=None, progress=None,
-           sink=None, compiled=None, texture_filter=None, pipeline="fused", adaptive=None, cache=True) -> Image:
+           sink=None, compiled=None, texture_filter=None, pipeline="fused", adaptive=None, cache=True, rows=None,
+           client=None, camera=None) -> Image:
     """Render ``scene`` to a linear RGB image.
 
     spp: samples per pixel (correlated multi-jittered within the pixel, box
@@ -61,11 +60,11 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     quarter of the device's memory); the scene's arrays count against it and
     the rest bounds the rays in flight per tile. tile_pixels bounds them
     directly (default: from the memory limit, at most 2^20 so that no launch
-    runs long enough to trip a GPU display watchdog).
+    runs long enough to trip a GPU display watchdog). Neither changes the image.
     progress: optional callable(fraction_done) called after each pass.
     sink: optional callable(y0, rgb_rows, aov_rows) given each finished band
-    of rows (float32 (rows, W, 3) and a dict like ``Image.aov``); the image is
-    then not kept in host memory (``Image.rgb`` is None): see
+    of rows (float32 (rows, W, 3) and a dict like ``Image.aov``), in order of y0;
+    the image is then not kept in host memory (``Image.rgb`` is None): see
     :func:`render_to_file` for images larger than memory.
     compiled: the result of :func:`texray.compile.compile_scene` for this
     scene, to skip compiling it again (the BVH of a big mesh takes seconds);
@@ -78,15 +77,25 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     pixel stops sampling once the standard error of its mean luminance is at
     most t times that mean (t times 0.1 below a mean of 0.1), checked after
     each round of about spp / 8 samples (at least 8), and while no neighbour
-    still samples (:mod:`texray.renderer.adaptive`); spp is then the most a
-    pixel takes. ``stats["samples"]`` counts the samples taken. Fused pipeline
-    only.
+    in its block of 16 rows still samples (:mod:`texray.renderer.adaptive`);
+    spp is then the most a pixel takes. ``stats["samples"]`` counts the samples
+    taken. Fused pipeline only.
     cache: True (default) reads the compiled scene from the scene cache when this
     scene (not counting the camera) was compiled before, in any process, and stores
     it when its compile took long enough (:mod:`texray.compile.cache`; the README's
     "Scene cache"); False compiles it here and leaves the cache alone, as does
     ``TEXRAY_NO_CACHE=1``. ``stats["scene_cache"]``: "hit", "stored", "miss" or
     "off"; the same image either way.
+    rows: None (the whole image) or (y0, y1): only the image's rows y0 <= y < y1, as
+    a (y1 - y0, W, 3) image equal bit for bit to those rows of the whole image (with
+    adaptive sampling y0 and y1 must be multiples of 16, or y1 = height).
+    client: a ``dask.distributed.Client`` or a scheduler's address ("tcp://host:8786"):
+    the image is cut into bands of rows that the cluster's workers render
+    (:mod:`texray.renderer.distributed`; ``pip install 'texray[dask]'``), the same
+    image, bit for bit, as without it on the same kind of device; ``device`` is
+    then chosen on each worker. ``stats["dask"]`` tells the bands and the workers.
+    camera: a :class:`texray.Camera` to render from instead of the scene's (see
+    :func:`texray.render_frames` for a camera path).
     """
     width, height, spp, seed = V.render_settings(width, height, spp, seed)
     aovs = _check_options(aovs, pipeline, progress, sink, jitter=jitter, shadows=shadows, specialize=specialize,
@@ -95,111 +104,73 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         adaptive = V.number(adaptive, "adaptive", "render: ", 0.0, lo_open=True)
         if pipeline != "fused":
             raise SceneError("render: adaptive: adaptive sampling runs in the fused pipeline; pass pipeline='fused'")
+    rows = _check_rows(rows, height, adaptive)
+    band = height if rows is None else rows[1] - rows[0]
     if sink is None:
-        check_host_memory(host_image_bytes(width, height, aovs), width, height)
+        check_host_memory(host_image_bytes(width, band, aovs), width, band)
+    dask_client = None if client is None else distributed.connect(client, "render: client")
     t_start = time.perf_counter()
-    cs, camera, cache_stats = _compiled(scene, compiled, shadows, texture_filter, aovs, specialize, cache)
-    if adaptive is not None:
-        cs.features = dataclasses.replace(cs.features, adaptive=True)
+    if camera is not None and not isinstance(camera, Camera):
+        raise SceneError(f"render: camera: expected a texray.Camera, got {V.show(camera)}")
+    cs, scene_camera, cache_stats = prepare(scene, compiled, shadows, texture_filter, aovs, specialize, cache,
+                                            adaptive)
+    camera = scene_camera if camera is None else camera
     t_compiled = time.perf_counter()
+    stats = scene_stats(cs, width, height, spp, specialize, pipeline, adaptive, cache_stats)
+    if dask_client is not None:
+        options = dict(device=device, seed=seed, jitter=jitter, aovs=aovs, adaptive=adaptive, pipeline=pipeline,
+                       local_size=local_size, memory_limit=memory_limit, tile_pixels=tile_pixels)
+        out = distributed.render_bands(dask_client, cs, camera, width, height, spp, rows, options, progress, sink)
+        stats.update(out.stats, scene_compile_s=t_compiled - t_start, total_s=time.perf_counter() - t_start)
+        return Image(rgb=out.rgb, aov=out.aov, stats=stats)
     rt = runtime(device)
     if cs.texels is not None:
         check_device_limits(cs.texels.nbytes, list(cs.texture_names), rt.device.max_mem_alloc_size)
     prg = rt.program(compile_options(cs.features))
     local = rt.local_size(local_size)
     t_built = time.perf_counter()
-
-    fused = pipeline == "fused"
-    nl = max(len(cs.lights), 1)
-    # per pixel of a tile: the accumulator; the staged pipeline (and the AOV pass) add the records
-    per_ray = (16 + (0 if fused and not aovs else RAY_BYTES - 16 + nl) + (4 * layout.AOV_FLOATS if aovs else 0)
-               + (8 if adaptive is not None else 0))
-    rows = plan_rows(width, height, per_ray, sum(cs.device_bytes().values()), rt.device,
-                     memory_limit=memory_limit, tile_pixels=tile_pixels)
-    run = _Run(rt, prg, cs, camera, width, height, spp, seed, jitter, local, rows, fused, aovs, adaptive)
-    t_uploaded = time.perf_counter()
-    img_rows = rows if sink is not None else height      # with a sink, only one band is kept
-    out = np.empty((img_rows, width, 4), np.float32)
-    aov_out = np.empty((img_rows, width, layout.AOV_FLOATS), np.float32) if aovs else None
-    per_launch = max(1, min(spp, MAX_FUSED_SAMPLES // run.n_max)) if fused else 1
-    launches = (spp + per_launch - 1) // per_launch
-    if adaptive is not None:            # the most launches the rounds can take
-        size = round_size(spp)
-        launches = (spp + size - 1) // size * ((size + per_launch - 1) // per_launch)
-    total_passes = ((height + rows - 1) // rows) * (launches + bool(aovs))
-
-    def report(last):
-        run.passes += 1
-        if progress is not None:
-            last.wait()
-            progress(min(1.0, run.passes / total_passes))
-
-    for y0 in range(0, height, rows):
-        tile_rows = min(rows, height - y0)
-        n = tile_rows * width
-        gsize, lsize = rt.launch_size(n, local)
-        oy = 0 if sink is not None else y0
-        cl.enqueue_fill_buffer(rt.queue, run.accum, np.float32(0), 0, n * 16)
-        if adaptive is not None:
-            run.adaptive_tile(n, y0, tile_rows, per_launch, report)
-        elif fused:
-            for first in range(0, spp, per_launch):
-                report(run.fused(gsize, lsize, n, y0, first, min(per_launch, spp - first)))
-        else:
-            for sample in range(spp):
-                report(run.staged_sample(gsize, lsize, n, y0, sample))
-        cl.enqueue_copy(rt.queue, out[oy:oy + tile_rows].reshape(-1, 4), run.accum, is_blocking=False)
-        if aovs:
-            run.trace(gsize, lsize, n, y0, 0, False, run.aov_buf)
-            cl.enqueue_copy(rt.queue, aov_out[oy:oy + tile_rows].reshape(-1, layout.AOV_FLOATS), run.aov_buf,
-                            is_blocking=False)
-            report(_Finish(rt.queue))
-        if sink is not None:
-            rt.queue.finish()
-            sink(y0, _mean(out[:tile_rows], spp, adaptive), _split_aovs(aov_out, aovs, tile_rows))
-    rt.queue.finish()
-    if progress is not None and run.passes < total_passes:
-        progress(1.0)                   # adaptive sampling ended early
+    out = render_rows(rt, prg, cs, camera, width, height, spp, rows, seed=seed, jitter=jitter, local=local,
+                      aovs=aovs, adaptive=adaptive, pipeline=pipeline, memory_limit=memory_limit,
+                      tile_pixels=tile_pixels, progress=progress, sink=sink)
     t_end = time.perf_counter()
-    rgb = None if sink is not None else np.ascontiguousarray(_mean(out, spp, adaptive))
-    aov = {} if sink is not None else _split_aovs(aov_out, aovs, height)
-    stage_s = {name: sum((e.profile.end - e.profile.start) for e in evs) * 1e-9 for name, evs in run.events.items()}
-    stats = {
-        "width": width, "height": height, "spp": spp, "device": rt.device.name.strip(),
+    stats.update({
+        "device": rt.device.name.strip(),
+        "scene_compile_s": t_compiled - t_start, "program_build_s": t_built - t_compiled,
+        "render_s": t_end - t_built, "upload_s": out.upload_s, "total_s": t_end - t_start,
+        "stage_s": out.stage_s, "tile_rows": out.tile_rows, "tiles": out.tiles, "local_size": local,
+        "ray_buffer_bytes": out.ray_buffer_bytes, "samples": out.samples,
+    })
+    return Image(rgb=out.rgb, aov=out.aov, stats=stats)
+
+
+def scene_stats(cs, width, height, spp, specialize, pipeline, adaptive, cache_stats):
+    """The stats of a render that come from the scene and the settings."""
+    return {
+        "width": width, "height": height, "spp": spp,
         "triangles": int(len(cs.tri_verts)), "spheres": int(len(cs.spheres)), "cylinders": int(len(cs.cylinders)),
         "quads": int(len(cs.quad_verts)), "bvh_nodes": int(len(cs.nodes)), "bvh_depth": cs.wide_depth,
         "bvh_binary_nodes": int(len(cs.bvh.nodes)), "bvh_binary_depth": cs.bvh.depth,
         "bvh_build_s": cs.bvh.build_seconds, "sah_cost": cs.bvh.sah_cost,
-        "scene_compile_s": t_compiled - t_start, "compile_steps_s": dict(cs.steps_s or {}),
-        "blas_reused": cs.blas_reused,
-        "program_build_s": t_built - t_compiled,
-        "render_s": t_end - t_built, "upload_s": t_uploaded - t_built, "total_s": t_end - t_start,
-        "stage_s": stage_s,
-        "tile_rows": rows, "tiles": (height + rows - 1) // rows, "local_size": local,
-        "device_bytes": cs.device_bytes(), "ray_buffer_bytes": run.n_max * per_ray,
-        "features": cs.features, "specialized": bool(specialize), "pipeline": pipeline,
-        "adaptive": adaptive, "samples": run.samples if adaptive is not None else width * height * spp,
-        **cache_stats,
+        "compile_steps_s": dict(cs.steps_s or {}), "blas_reused": cs.blas_reused,
+        "device_bytes": cs.device_bytes(), "features": cs.features, "specialized": bool(specialize),
+        "pipeline": pipeline, "adaptive": adaptive, **cache_stats,
     }
-    return Image(rgb=rgb, aov=aov, stats=stats)
 
 
-def _mean(out, spp, adaptive):
-    """The pixels' means from the accumulators (sum RGB, samples): each pixel's own count
-    with adaptive sampling, else spp for all (the same value, divided the same way)."""
-    if adaptive is None:
-        return out[:, :, :3] / np.float32(spp)
-    return out[:, :, :3] / out[:, :, 3:4]
-
-
-class _Finish:
-    """What a pass of several launches waits on: the whole queue."""
-
-    def __init__(self, queue):
-        self.queue = queue
-
-    def wait(self):
-        self.queue.finish()
+def _check_rows(rows, height, adaptive):
+    """``rows`` as a (y0, y1) tuple of ints, or None for the whole image."""
+    if rows is None:
+        return None
+    if (not isinstance(rows, (tuple, list)) or len(rows) != 2
+            or not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in rows)):
+        raise SceneError(f"render: rows: expected (y0, y1), two integers, got {V.show(rows)}")
+    y0, y1 = int(rows[0]), int(rows[1])
+    if not 0 <= y0 < y1 <= height:
+        raise SceneError(f"render: rows: expected 0 <= y0 < y1 <= height = {height}, got ({y0}, {y1})")
+    if adaptive is not None and (y0 % BLOCK_ROWS or (y1 % BLOCK_ROWS and y1 != height)):
+        raise SceneError(f"render: rows: adaptive sampling decides per block of {BLOCK_ROWS} rows; y0 and y1 "
+                         f"must be multiples of {BLOCK_ROWS} (or y1 = height), got ({y0}, {y1})")
+    return y0, y1
 
 
 def _check_options(aovs, pipeline, progress, sink, **flags):
@@ -221,7 +192,7 @@ def _check_options(aovs, pipeline, progress, sink, **flags):
     return aovs
 
 
-def _compiled(scene, compiled, shadows, texture_filter, aovs, specialize, cache):
+def prepare(scene, compiled, shadows, texture_filter, aovs, specialize, cache, adaptive=None):
     """(the CompiledScene to render with the features these settings need, the camera,
     the scene cache's stats)."""
     if isinstance(scene, CompiledScene) and compiled is None:
@@ -245,109 +216,9 @@ def _compiled(scene, compiled, shadows, texture_filter, aovs, specialize, cache)
         cs.features = generic_features(cs.features)
         if cs.objects is None:                     # the generic program reads every object's mapping
             cs.objects = cs.objects_generic
+    if adaptive is not None:
+        cs.features = dataclasses.replace(cs.features, adaptive=True)
     return cs, (scene.camera if scene is not None else cs.camera), cache_stats
-
-
-class _Run:
-    """One render's device state: the uploaded scene, the per-tile buffers, the kernels and
-    their profiling events; launches the fused kernel or one sample of the stages."""
-
-    def __init__(self, rt, prg, cs, camera, width, height, spp, seed, jitter, local, rows, fused, aovs, adaptive):
-        self.rt, self.cs, self.local, self.adaptive = rt, cs, local, adaptive
-        self.samples = 0
-        self.width, self.height, self.spp, self.seed, self.jitter = width, height, spp, seed, jitter
-        self.n_max = rows * width
-        self.passes = 0
-        nl = max(len(cs.lights), 1)
-        self.up = Uploaded(rt.context, cs)
-        mf, ctx, n_max = cl.mem_flags, rt.context, self.n_max
-        try:
-            staged = not fused or aovs
-            self.rays = cl.Buffer(ctx, mf.READ_WRITE, n_max * layout.RAY.itemsize) if staged else None
-            hit_records = 2 if cs.features.instances else 1      # stages/intersect.cl: + the instances
-            self.hits = cl.Buffer(ctx, mf.READ_WRITE, hit_records * n_max * layout.HIT.itemsize) if staged else None
-            self.surf = cl.Buffer(ctx, mf.READ_WRITE, n_max * layout.SURFACE.itemsize) if staged else None
-            self.vis = cl.Buffer(ctx, mf.READ_WRITE, n_max * nl) if not fused else None
-            self.accum = cl.Buffer(ctx, mf.READ_WRITE, n_max * 16)
-            self.aov_buf = cl.Buffer(ctx, mf.WRITE_ONLY, n_max * 4 * layout.AOV_FLOATS) if aovs else None
-            self.active = cl.Buffer(ctx, mf.READ_ONLY, n_max * 4) if adaptive is not None else None
-            self.sum_y2 = cl.Buffer(ctx, mf.READ_WRITE, n_max * 4) if adaptive is not None else None
-            cam = np.zeros(1, layout.CAMERA)
-            eye, fwd, right, upv = camera.basis(width / height)
-            cam["eye"], cam["forward"], cam["right"], cam["up"] = eye, fwd, right, upv
-            self.cam = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=cam)
-        except cl.MemoryError as e:
-            raise DeviceError(f"render: out of device memory for {n_max} rays per tile; pass a smaller "
-                              f"tile_pixels ({e})") from None
-        self.k = {name: cl.Kernel(prg, name) for name in STAGES + ("render_fused",)}
-        self.events = {name: [] for name in (("render_fused",) if fused else STAGES)}
-        if fused and aovs:
-            self.events.update({name: [] for name in ("raygen", "intersect", "surface")})
-        u32 = np.uint32
-        self.geom, self.light = self.up.geom, self.up.light
-        self.surface_args = self.up.args("SURFACE", cam=self.cam, image_w=u32(width), image_h=u32(height),
-                                         spp=u32(spp))
-
-    def _launch(self, name, gsize, lsize, *args):
-        ev = self.k[name](self.rt.queue, gsize, lsize, *args)
-        self.events[name].append(ev)
-        return ev
-
-    def fused(self, gsize, lsize, n, y0, first, count):
-        """``count`` samples from ``first`` of every pixel of the tile at row y0."""
-        u32, cs = np.uint32, self.cs
-        return self._launch("render_fused", gsize, lsize, self.accum, self.active, self.sum_y2, u32(n), u32(y0),
-                            u32(first), u32(count),
-                            u32(self.seed), u32(self.jitter), *self.geom, *self.surface_args, *self.light,
-                            cs.ambient, cs.background)
-
-    def adaptive_tile(self, n, y0, rows, per_launch, report):
-        """Sample the tile's n pixels in rounds, each round only those still active
-        (texray.renderer.adaptive), up to spp samples."""
-        q, spp, width = self.rt.queue, self.spp, self.width
-        cl.enqueue_fill_buffer(q, self.sum_y2, np.float32(0), 0, n * 4)
-        active = np.arange(n, dtype=np.uint32)
-        acc, y2 = np.empty((n, 4), np.float32), np.empty(n, np.float32)
-        done, size = 0, round_size(spp)
-        while done < spp and len(active):
-            cl.enqueue_copy(q, self.active, active)
-            gsize, lsize = self.rt.launch_size(len(active), self.local)
-            count = min(size, spp - done)
-            for first in range(done, done + count, per_launch):
-                report(self.fused(gsize, lsize, len(active), y0, first, min(per_launch, done + count - first)))
-            self.samples += len(active) * count
-            done += count
-            if done < spp:
-                cl.enqueue_copy(q, acc, self.accum)
-                cl.enqueue_copy(q, y2, self.sum_y2)
-                mean, se = standard_error(acc[:, :3], y2, acc[:, 3])
-                active = np.flatnonzero(still_active(mean, se, self.adaptive, rows, width)).astype(np.uint32)
-
-    def trace(self, gsize, lsize, n, y0, sample, jit, aov):
-        """raygen -> intersect -> surface of one sample of the tile (``aov``: the AOV buffer or None)."""
-        u32, w = np.uint32, self.width
-        self._launch("raygen", gsize, lsize, self.rays, self.cam, u32(w), u32(self.height), u32(0), u32(y0), u32(w),
-                     u32(n), u32(sample), u32(self.spp), u32(self.seed), u32(jit))
-        self._launch("intersect", gsize, lsize, self.rays, self.hits, u32(n), *self.geom)
-        self._launch("surface", gsize, lsize, self.rays, self.hits, self.surf, u32(n), *self.geom,
-                     *self.surface_args, aov)
-
-    def staged_sample(self, gsize, lsize, n, y0, sample):
-        """One sample of the tile through the five stage kernels; the shade stage's event."""
-        u32, cs = np.uint32, self.cs
-        self.trace(gsize, lsize, n, y0, sample, self.jitter, None)
-        if len(cs.lights):
-            self._launch("shadow", gsize, lsize, self.surf, self.vis, u32(n), *self.geom, *self.light)
-        return self._launch("shade", gsize, lsize, self.rays, self.surf, self.vis, u32(n), self.accum, *self.light,
-                            cs.ambient, cs.background)
-
-
-def _split_aovs(aov_out, names, rows):
-    aov = {}
-    for a in names:
-        first, count = layout.AOVS[a]
-        aov[a] = np.ascontiguousarray(aov_out[:rows, :, first:first + count])
-    return aov
 
 
 def render_to_file(scene, path, width, height, spp=1, **kwargs) -> dict:

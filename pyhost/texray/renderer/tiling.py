@@ -34,3 +34,13 @@ def plan_rows(width, height, per_ray_bytes, scene_bytes, dev, memory_limit=None,
     limit = MAX_TILE_PIXELS if tile_pixels is None else V.integer(tile_pixels, "tile_pixels", "render: ", 1)
     pixels = min(by_memory, limit)
     return int(max(1, min(height, pixels // width)))
+
+
+def fused_samples(width, height, spp) -> int:
+    """Samples of every pixel that one launch of the fused kernel sums (each launch adds
+    its sum to the pixel's accumulator, so this fixes the order of the additions): at most
+    MAX_FUSED_SAMPLES pixel samples per launch of the default tile. A function of the
+    image alone, not of the tiles a device's memory or ``tile_pixels`` cut it into, so
+    any band of rows rendered alone sums its samples as the whole image does."""
+    rows = max(1, min(height, MAX_TILE_PIXELS // width))
+    return max(1, min(spp, MAX_FUSED_SAMPLES // (rows * width)))

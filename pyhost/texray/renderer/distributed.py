@@ -1,0 +1,315 @@
+"""Rendering on a Dask cluster: an image cut into bands of rows, one task per band.
+
+``render(..., client=)`` and ``render_frames(..., client=)`` come here. The client
+compiles the scene once (with the scene cache, as a local render does) and sends the
+compiled scene to every worker once (:func:`ship`: ``Client.scatter(broadcast=True)``,
+remembered per client by the scene's content hash, so the frames of a camera path or
+a second render of the same scene send nothing). Each task then renders its band with
+:func:`texray.renderer.frame.render_rows` on the worker's device; the worker keeps its
+OpenCL runtime and built programs (texray.device.runtime is per process) and the
+scene's device buffers (:data:`UPLOADS`) across tasks.
+
+A band is a pure function of (compiled scene, camera, rows, samples, seed): its pixels
+equal those rows of a local render bit for bit (texray.renderer.frame), so a task lost
+with its worker is run again elsewhere and the image is unchanged. An exception on a
+worker is raised on the client as the same texray exception with its message.
+
+Band size (:func:`band_rows`): whole blocks of adaptive sampling (16 rows), about
+TASKS_PER_WORKER bands per worker so that a slow or lost worker is balanced by the
+others, and at least MIN_BAND_SAMPLES pixel samples per band so that the per-task
+overhead (a few milliseconds: the README's "Rendering on a cluster") stays small
+against the band's time.
+"""
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import hashlib
+import os
+import pickle
+import threading
+import time
+import uuid
+import weakref
+from collections import OrderedDict
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..compile.textures import check_device_limits
+from ..device import runtime
+from ..device.buffers import Uploaded
+from ..device.features import compile_options
+from ..errors import DeviceError, SceneError
+from .. import validate as V
+from .adaptive import BLOCK_ROWS
+from .frame import render_rows
+
+TASKS_PER_WORKER = 4          # bands per worker, for balance
+MIN_BAND_SAMPLES = 1 << 18    # pixel samples per band at least: ~0.1 s on one PoCL core at 16 spp
+SHIPPED_PER_CLIENT = 4        # compiled scenes kept on a cluster per client (newest first)
+UPLOADS_PER_WORKER = 2        # scenes whose device buffers a worker keeps
+INSTALL = "pip install 'texray[dask]'"
+CONNECT_TIMEOUT = "10s"          # to reach a scheduler given by its address
+
+_clients: dict = {}                                   # scheduler address -> Client made for it
+_shipped: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # Client -> OrderedDict(key -> Future)
+UPLOADS: "OrderedDict" = OrderedDict()                # on a worker: (key, device, features) -> Uploaded
+_uploads_lock = threading.Lock()
+
+
+def connect(client, where="render: client"):
+    """The dask.distributed.Client for ``client`` (a Client, or a scheduler's address, for
+    which one Client per process is made and kept). SceneError without Dask installed
+    (saying what to install) or for anything else; DeviceError when the scheduler cannot
+    be reached."""
+    try:
+        import dask.distributed as dd
+    except ImportError:
+        raise SceneError(f"{where}: rendering on a Dask cluster needs dask.distributed, which is not "
+                         f"installed: {INSTALL}") from None
+    if isinstance(client, dd.Client):
+        return client
+    if isinstance(client, str) and client:
+        c = _clients.get(client)
+        if c is None or c.status not in ("running", "connecting"):
+            try:
+                c = _clients[client] = dd.Client(client, timeout=CONNECT_TIMEOUT)
+            except (OSError, TimeoutError) as e:
+                raise DeviceError(f"{where}: cannot reach the Dask scheduler at {client!r}: {e}") from None
+        return c
+    raise SceneError(f"{where}: expected a dask.distributed.Client or a scheduler address "
+                     f"('tcp://host:8786'), got {V.show(client)}")
+
+
+def add_cluster_arguments(parser):
+    """The command line's --scheduler and --workers (texray render, texray bench)."""
+    g = parser.add_mutually_exclusive_group()
+    g.add_argument("--scheduler", metavar="ADDR",
+                   help="render on the Dask cluster of this scheduler (tcp://host:8786); pip install 'texray[dask]'")
+    g.add_argument("--workers", type=int, metavar="N",
+                   help="start a Dask LocalCluster of N worker processes (one thread each) on this machine "
+                        "and render on it")
+
+
+@contextlib.contextmanager
+def cluster_client(scheduler=None, workers=None):
+    """The Client the command line asked for (None for neither --scheduler nor --workers);
+    a LocalCluster started for --workers is closed on leaving."""
+    if scheduler is None and not workers:
+        yield None
+        return
+    if scheduler is not None:
+        yield connect(scheduler, "--scheduler")
+        return
+    if workers < 1:
+        raise SceneError(f"--workers: expected a positive number of worker processes, got {workers}")
+    try:
+        import dask.distributed as dd
+    except ImportError:
+        raise SceneError(f"--workers: a local Dask cluster needs dask.distributed, which is not installed: "
+                         f"{INSTALL}") from None
+    with dd.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            dd.Client(cluster) as client:
+        yield client
+
+
+def band_rows(width, rows, spp, workers) -> int:
+    """Rows per band for ``rows`` image rows of ``width`` pixels at ``spp`` samples on
+    ``workers`` workers: a multiple of BLOCK_ROWS (or all the rows), about
+    TASKS_PER_WORKER bands per worker, none under MIN_BAND_SAMPLES pixel samples."""
+    blocks = -(-rows // BLOCK_ROWS)
+    by_overhead = max(1, width * rows * spp // MIN_BAND_SAMPLES)
+    bands = max(1, min(blocks, TASKS_PER_WORKER * max(1, workers), by_overhead))
+    return min(rows, -(-blocks // bands) * BLOCK_ROWS)
+
+
+def compiled_key(cs) -> str:
+    """Content hash of what a worker renders from: every field of the compiled scene but
+    those only the client reads (the binary BVH, the camera, the compile's timings)."""
+    h = hashlib.blake2b(digest_size=20)
+    for f in dataclasses.fields(cs):
+        if f.name in _CLIENT_ONLY:
+            continue
+        v = getattr(cs, f.name)
+        h.update(f.name.encode() + b"\0")
+        if isinstance(v, np.ndarray):
+            a = np.ascontiguousarray(v)
+            h.update(f"{a.dtype.descr}{a.shape}".encode())
+            h.update(memoryview(a.reshape(-1)).cast("B") if a.size else b"")
+        else:
+            h.update(repr(v).encode())
+    return h.hexdigest()
+
+
+_CLIENT_ONLY = ("bvh", "camera", "steps_s", "blas_reused", "objects_generic")
+
+
+def _for_workers(cs):
+    """The compiled scene without what only the client reads."""
+    return dataclasses.replace(cs, **{name: None for name in _CLIENT_ONLY if name != "blas_reused"})
+
+
+def ship(client, cs):
+    """(a Future of ``cs`` on every worker, its key, {"shipped": whether it was sent now,
+    "ship_bytes", "ship_s"}); a scene this client sent before, still held, is not sent again."""
+    key = compiled_key(cs)
+    held = _shipped.setdefault(client, OrderedDict())
+    fut = held.get(key)
+    if fut is not None and fut.status == "finished":
+        held.move_to_end(key)
+        return fut, key, {"shipped": False, "ship_bytes": 0, "ship_s": 0.0}
+    slim = _for_workers(cs)
+    nbytes = len(pickle.dumps(slim, protocol=5))
+    t0 = time.perf_counter()
+    fut = client.scatter(slim, broadcast=True, hash=False)
+    fut.result()                       # wait: the ship time is a figure of its own
+    held[key] = fut
+    while len(held) > SHIPPED_PER_CLIENT:
+        held.popitem(last=False)
+    return fut, key, {"shipped": True, "ship_bytes": nbytes, "ship_s": time.perf_counter() - t0}
+
+
+def render_band(cs, key, camera, width, height, spp, rows, options):
+    """A task: rows ``rows`` of the image on this worker's device (options: render's
+    device, seed, jitter, aovs, adaptive, pipeline, local_size, memory_limit,
+    tile_pixels). Returns a dict: rows, rgb, aov, samples, render_s, worker, device."""
+    t0 = time.perf_counter()
+    rt = runtime(options["device"])
+    if cs.texels is not None:
+        check_device_limits(cs.texels.nbytes, list(cs.texture_names), rt.device.max_mem_alloc_size)
+    prg = rt.program(compile_options(cs.features))
+    build_s = time.perf_counter() - t0
+    local = rt.local_size(options["local_size"])
+    up = _uploaded(rt, cs, key)
+    out = render_rows(rt, prg, cs, camera, width, height, spp, rows, seed=options["seed"],
+                      jitter=options["jitter"], local=local, aovs=options["aovs"], adaptive=options["adaptive"],
+                      pipeline=options["pipeline"], memory_limit=options["memory_limit"],
+                      tile_pixels=options["tile_pixels"], uploaded=up)
+    return {"rows": rows, "rgb": out.rgb, "aov": out.aov, "samples": out.samples,
+            "render_s": time.perf_counter() - t0, "worker": f"{os.uname().nodename}:{os.getpid()}",
+            "device": rt.device.name.strip(), "tile_rows": out.tile_rows, "ray_buffer_bytes": out.ray_buffer_bytes,
+            "local_size": local, "program_build_s": build_s}
+
+
+def _uploaded(rt, cs, key):
+    """The scene's device buffers on this worker, uploaded once per (scene, device,
+    features) and kept for the next tasks (the UPLOADS_PER_WORKER newest)."""
+    k = (key, rt.device.int_ptr, cs.features)
+    with _uploads_lock:
+        up = UPLOADS.get(k)
+        if up is None:
+            up = UPLOADS[k] = Uploaded(rt.context, cs)
+            while len(UPLOADS) > UPLOADS_PER_WORKER:
+                UPLOADS.popitem(last=False)
+        UPLOADS.move_to_end(k)
+        return up
+
+
+@dataclass
+class Bands:
+    """One image's tasks on a cluster; :meth:`collect` assembles them."""
+    client: object
+    futures: list
+    bands: list
+    width: int
+    rows: tuple
+    aovs: tuple
+    ship: dict
+    per_band: int
+    workers: int
+    t_submit: float = field(default_factory=time.perf_counter)
+
+    def collect(self, progress=None, sink=None) -> "Collected":
+        """The image's rows (or, with ``sink``, each band given to it in order of y0 and
+        not kept); raises a task's exception (the same texray class) after cancelling the
+        other tasks."""
+        import dask.distributed as dd
+        y_start, y_end = self.rows
+        n = y_end - y_start
+        rgb = np.empty((n, self.width, 3), np.float32) if sink is None else None
+        aov = {} if sink is None else None
+        results, next_i, done = {}, 0, 0
+        index = {f.key: i for i, f in enumerate(self.futures)}
+        try:
+            for fut in dd.as_completed(self.futures):
+                r = fut.result()
+                done += 1
+                i = index[fut.key]
+                if sink is None:
+                    a, b = r["rows"]
+                    rgb[a - y_start:b - y_start] = r["rgb"]
+                    for name, arr in r["aov"].items():
+                        if name not in aov:
+                            aov[name] = np.empty((n, self.width, arr.shape[2]), np.float32)
+                        aov[name][a - y_start:b - y_start] = arr
+                    results[i] = _summary(r)
+                else:
+                    results[i] = r
+                    while next_i in results and "rgb" in results[next_i]:
+                        ready = results[next_i]
+                        sink(ready["rows"][0], ready["rgb"], ready["aov"])
+                        results[next_i] = _summary(ready)
+                        next_i += 1
+                if progress is not None:
+                    progress(done / len(self.futures))
+        except BaseException:
+            self.client.cancel(self.futures)
+            raise
+        summaries = [results[i] for i in range(len(self.futures))]
+        wall = time.perf_counter() - self.t_submit
+        by_worker = {}
+        for s in summaries:
+            by_worker[s["worker"]] = by_worker.get(s["worker"], 0) + 1
+        task_s = [s["render_s"] for s in summaries]
+        stats = {
+            "device": ", ".join(sorted({s["device"] for s in summaries})),
+            "render_s": wall, "samples": int(sum(s["samples"] for s in summaries)),
+            "program_build_s": max(s["program_build_s"] for s in summaries), "upload_s": self.ship["ship_s"],
+            "stage_s": {},
+            "tile_rows": self.per_band, "tiles": len(self.bands), "local_size": summaries[0]["local_size"],
+            "ray_buffer_bytes": max(s["ray_buffer_bytes"] for s in summaries),
+            "dask": {"workers": self.workers, "bands": len(self.bands), "band_rows": self.per_band,
+                     "task_s_median": float(np.median(task_s)), "task_s_sum": float(sum(task_s)),
+                     "by_worker": by_worker, **self.ship},
+        }
+        return Collected(rgb=rgb, aov=aov if aov is not None else {}, stats=stats)
+
+
+@dataclass
+class Collected:
+    rgb: np.ndarray | None
+    aov: dict
+    stats: dict
+
+
+def _summary(r):
+    return {k: v for k, v in r.items() if k not in ("rgb", "aov")}
+
+
+def submit_bands(client, cs, camera, width, height, spp, rows, options) -> Bands:
+    """Send the scene (once, :func:`ship`) and submit one task per band of ``rows``
+    (None: the whole image)."""
+    y_start, y_end = (0, height) if rows is None else rows
+    workers = len(client.scheduler_info().get("workers", {}))
+    if workers == 0:
+        try:
+            client.wait_for_workers(1, timeout=60)
+        except (TimeoutError, OSError):
+            raise DeviceError("render: client: the Dask cluster has no workers (waited 60 s)") from None
+        workers = len(client.scheduler_info().get("workers", {}))
+    per = band_rows(width, y_end - y_start, spp, workers)
+    fut, key, shipped = ship(client, cs)
+    token = uuid.uuid4().hex[:12]
+    bands = [(a, min(a + per, y_end)) for a in range(y_start, y_end, per)]
+    futures = [client.submit(render_band, fut, key, camera, width, height, spp, band, options,
+                             key=f"texray-band-{token}-{band[0]}", pure=False) for band in bands]
+    return Bands(client=client, futures=futures, bands=bands, width=width, rows=(y_start, y_end),
+                 aovs=tuple(options["aovs"]), ship=shipped, per_band=per, workers=workers)
+
+
+def render_bands(client, cs, camera, width, height, spp, rows, options, progress=None, sink=None) -> Collected:
+    """``render(client=)``'s work: submit the bands, then collect them."""
+    return submit_bands(client, cs, camera, width, height, spp, rows, options).collect(progress, sink)
+
+

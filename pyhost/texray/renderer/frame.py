@@ -1,0 +1,242 @@
+"""The device side of a render: a compiled scene's rows (the whole image, or a band of it)
+run tile by tile through the fused kernel or the five stage kernels.
+
+What a pixel's value depends on is fixed by the image, never by how it is cut: the
+samples a fused launch sums come from the image's size (:func:`texray.renderer.tiling.
+fused_samples`), and adaptive sampling decides per block of ADAPTIVE_BLOCK_ROWS rows
+(:mod:`.adaptive`). So the rows y0..y1 rendered alone (``rows=``, a Dask task of
+:mod:`.distributed`) equal those rows of the whole image bit for bit, whatever the tiles,
+the memory limit or the device's memory.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyopencl as cl
+
+from ..device import layout
+from ..device.buffers import Uploaded
+from ..errors import DeviceError
+from .adaptive import BLOCK_ROWS, round_size, standard_error, still_active
+from .tiling import fused_samples, plan_rows
+
+STAGES = ("raygen", "intersect", "surface", "shadow", "shade")
+PIPELINES = ("fused", "stages")
+# Bytes per in-flight ray besides the shadow bytes: Ray + Hit + Surface + accumulator.
+RAY_BYTES = layout.RAY.itemsize + layout.HIT.itemsize + layout.SURFACE.itemsize + 16
+
+
+@dataclass
+class Rows:
+    """What :func:`render_rows` returns: the rows' linear RGB (None with a sink), their AOVs,
+    and how they were run."""
+    rgb: np.ndarray | None
+    aov: dict
+    tile_rows: int
+    tiles: int
+    samples: int
+    per_ray: int
+    ray_buffer_bytes: int
+    upload_s: float
+    stage_s: dict = field(default_factory=dict)
+
+
+def per_ray_bytes(cs, fused, aovs, adaptive):
+    """Device bytes per pixel of a tile: the accumulator; the staged pipeline (and the AOV
+    pass) add the per-ray records."""
+    nl = max(len(cs.lights), 1)
+    return (16 + (0 if fused and not aovs else RAY_BYTES - 16 + nl) + (4 * layout.AOV_FLOATS if aovs else 0)
+            + (8 if adaptive is not None else 0))
+
+
+def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, jitter=True, local=0, aovs=(),
+                adaptive=None, pipeline="fused", memory_limit=None, tile_pixels=None, progress=None, sink=None,
+                uploaded=None) -> Rows:
+    """Rows ``rows = (y0, y1)`` (default: all) of the ``width`` x ``height`` image of ``cs``
+    seen by ``camera``, with the program ``prg`` of runtime ``rt``; the arguments are
+    texray.render's, checked. ``uploaded``: the scene's device buffers, when the caller keeps
+    them across renders (:mod:`.distributed`'s workers)."""
+    y_start, y_end = (0, height) if rows is None else rows
+    band = y_end - y_start
+    fused = pipeline == "fused"
+    per_ray = per_ray_bytes(cs, fused, aovs, adaptive)
+    tile = plan_rows(width, band, per_ray, sum(cs.device_bytes().values()), rt.device,
+                     memory_limit=memory_limit, tile_pixels=tile_pixels)
+    if adaptive is not None and tile >= BLOCK_ROWS:
+        tile -= tile % BLOCK_ROWS            # whole blocks per tile: the stopping rule's unit
+    t0 = time.perf_counter()
+    run = _Run(rt, prg, cs, camera, width, height, spp, seed, jitter, local, tile, fused, aovs, adaptive, uploaded)
+    upload_s = time.perf_counter() - t0
+    img_rows = tile if sink is not None else band      # with a sink, only one band is kept
+    out = np.empty((img_rows, width, 4), np.float32)
+    aov_out = np.empty((img_rows, width, layout.AOV_FLOATS), np.float32) if aovs else None
+    per_launch = fused_samples(width, height, spp) if fused else 1
+    launches = (spp + per_launch - 1) // per_launch
+    if adaptive is not None:            # the most launches the rounds can take
+        size = round_size(spp)
+        launches = (spp + size - 1) // size * ((size + per_launch - 1) // per_launch)
+    tiles = (band + tile - 1) // tile
+    total_passes = tiles * (launches + bool(aovs))
+
+    def report(last):
+        run.passes += 1
+        if progress is not None:
+            last.wait()
+            progress(min(1.0, run.passes / total_passes))
+
+    for y0 in range(y_start, y_end, tile):
+        tile_rows = min(tile, y_end - y0)
+        n = tile_rows * width
+        gsize, lsize = rt.launch_size(n, local)
+        oy = 0 if sink is not None else y0 - y_start
+        cl.enqueue_fill_buffer(rt.queue, run.accum, np.float32(0), 0, n * 16)
+        if adaptive is not None:
+            run.adaptive_tile(n, y0, tile_rows, per_launch, report)
+        elif fused:
+            for first in range(0, spp, per_launch):
+                report(run.fused(gsize, lsize, n, y0, first, min(per_launch, spp - first)))
+        else:
+            for sample in range(spp):
+                report(run.staged_sample(gsize, lsize, n, y0, sample))
+        cl.enqueue_copy(rt.queue, out[oy:oy + tile_rows].reshape(-1, 4), run.accum, is_blocking=False)
+        if aovs:
+            run.trace(gsize, lsize, n, y0, 0, False, run.aov_buf)
+            cl.enqueue_copy(rt.queue, aov_out[oy:oy + tile_rows].reshape(-1, layout.AOV_FLOATS), run.aov_buf,
+                            is_blocking=False)
+            report(_Finish(rt.queue))
+        if sink is not None:
+            rt.queue.finish()
+            sink(y0, mean_rgb(out[:tile_rows], spp, adaptive), split_aovs(aov_out, aovs, tile_rows))
+    rt.queue.finish()
+    if progress is not None and run.passes < total_passes:
+        progress(1.0)                   # adaptive sampling ended early
+    rgb = None if sink is not None else np.ascontiguousarray(mean_rgb(out, spp, adaptive))
+    aov = {} if sink is not None else split_aovs(aov_out, aovs, band)
+    stage_s = {name: sum((e.profile.end - e.profile.start) for e in evs) * 1e-9 for name, evs in run.events.items()}
+    samples = run.samples if adaptive is not None else width * band * spp
+    return Rows(rgb=rgb, aov=aov, tile_rows=tile, tiles=tiles, samples=samples, per_ray=per_ray,
+                ray_buffer_bytes=run.n_max * per_ray, upload_s=upload_s, stage_s=stage_s)
+
+
+def mean_rgb(out, spp, adaptive):
+    """The pixels' means from the accumulators (sum RGB, samples): each pixel's own count
+    with adaptive sampling, else spp for all (the same value, divided the same way)."""
+    if adaptive is None:
+        return out[:, :, :3] / np.float32(spp)
+    return out[:, :, :3] / out[:, :, 3:4]
+
+
+def split_aovs(aov_out, names, rows):
+    """``Image.aov`` from the AOV pass's packed floats (texray.device.layout.AOVS)."""
+    aov = {}
+    for a in names:
+        first, count = layout.AOVS[a]
+        aov[a] = np.ascontiguousarray(aov_out[:rows, :, first:first + count])
+    return aov
+
+
+class _Finish:
+    """What a pass of several launches waits on: the whole queue."""
+
+    def __init__(self, queue):
+        self.queue = queue
+
+    def wait(self):
+        self.queue.finish()
+
+
+class _Run:
+    """One render's device state: the uploaded scene, the per-tile buffers, the kernels and
+    their profiling events; launches the fused kernel or one sample of the stages."""
+
+    def __init__(self, rt, prg, cs, camera, width, height, spp, seed, jitter, local, rows, fused, aovs, adaptive,
+                 uploaded):
+        self.rt, self.cs, self.local, self.adaptive = rt, cs, local, adaptive
+        self.samples = 0
+        self.width, self.height, self.spp, self.seed, self.jitter = width, height, spp, seed, jitter
+        self.n_max = rows * width
+        self.passes = 0
+        nl = max(len(cs.lights), 1)
+        self.up = uploaded if uploaded is not None else Uploaded(rt.context, cs)
+        mf, ctx, n_max = cl.mem_flags, rt.context, self.n_max
+        try:
+            staged = not fused or aovs
+            self.rays = cl.Buffer(ctx, mf.READ_WRITE, n_max * layout.RAY.itemsize) if staged else None
+            hit_records = 2 if cs.features.instances else 1      # stages/intersect.cl: + the instances
+            self.hits = cl.Buffer(ctx, mf.READ_WRITE, hit_records * n_max * layout.HIT.itemsize) if staged else None
+            self.surf = cl.Buffer(ctx, mf.READ_WRITE, n_max * layout.SURFACE.itemsize) if staged else None
+            self.vis = cl.Buffer(ctx, mf.READ_WRITE, n_max * nl) if not fused else None
+            self.accum = cl.Buffer(ctx, mf.READ_WRITE, n_max * 16)
+            self.aov_buf = cl.Buffer(ctx, mf.WRITE_ONLY, n_max * 4 * layout.AOV_FLOATS) if aovs else None
+            self.active = cl.Buffer(ctx, mf.READ_ONLY, n_max * 4) if adaptive is not None else None
+            self.sum_y2 = cl.Buffer(ctx, mf.READ_WRITE, n_max * 4) if adaptive is not None else None
+            cam = np.zeros(1, layout.CAMERA)
+            eye, fwd, right, upv = camera.basis(width / height)
+            cam["eye"], cam["forward"], cam["right"], cam["up"] = eye, fwd, right, upv
+            self.cam = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=cam)
+        except cl.MemoryError as e:
+            raise DeviceError(f"render: out of device memory for {n_max} rays per tile; pass a smaller "
+                              f"tile_pixels ({e})") from None
+        self.k = {name: cl.Kernel(prg, name) for name in STAGES + ("render_fused",)}
+        self.events = {name: [] for name in (("render_fused",) if fused else STAGES)}
+        if fused and aovs:
+            self.events.update({name: [] for name in ("raygen", "intersect", "surface")})
+        u32 = np.uint32
+        self.geom, self.light = self.up.geom, self.up.light
+        self.surface_args = self.up.args("SURFACE", cam=self.cam, image_w=u32(width), image_h=u32(height),
+                                         spp=u32(spp))
+
+    def _launch(self, name, gsize, lsize, *args):
+        ev = self.k[name](self.rt.queue, gsize, lsize, *args)
+        self.events[name].append(ev)
+        return ev
+
+    def fused(self, gsize, lsize, n, y0, first, count):
+        """``count`` samples from ``first`` of every pixel of the tile at row y0."""
+        u32, cs = np.uint32, self.cs
+        return self._launch("render_fused", gsize, lsize, self.accum, self.active, self.sum_y2, u32(n), u32(y0),
+                            u32(first), u32(count),
+                            u32(self.seed), u32(self.jitter), *self.geom, *self.surface_args, *self.light,
+                            cs.ambient, cs.background)
+
+    def adaptive_tile(self, n, y0, rows, per_launch, report):
+        """Sample the tile's n pixels in rounds, each round only those still active
+        (texray.renderer.adaptive), up to spp samples."""
+        q, spp, width = self.rt.queue, self.spp, self.width
+        cl.enqueue_fill_buffer(q, self.sum_y2, np.float32(0), 0, n * 4)
+        active = np.arange(n, dtype=np.uint32)
+        acc, y2 = np.empty((n, 4), np.float32), np.empty(n, np.float32)
+        done, size = 0, round_size(spp)
+        while done < spp and len(active):
+            cl.enqueue_copy(q, self.active, active)
+            gsize, lsize = self.rt.launch_size(len(active), self.local)
+            count = min(size, spp - done)
+            for first in range(done, done + count, per_launch):
+                report(self.fused(gsize, lsize, len(active), y0, first, min(per_launch, done + count - first)))
+            self.samples += len(active) * count
+            done += count
+            if done < spp:
+                cl.enqueue_copy(q, acc, self.accum)
+                cl.enqueue_copy(q, y2, self.sum_y2)
+                mean, se = standard_error(acc[:, :3], y2, acc[:, 3])
+                active = np.flatnonzero(still_active(mean, se, self.adaptive, rows, width, y0)).astype(np.uint32)
+
+    def trace(self, gsize, lsize, n, y0, sample, jit, aov):
+        """raygen -> intersect -> surface of one sample of the tile (``aov``: the AOV buffer or None)."""
+        u32, w = np.uint32, self.width
+        self._launch("raygen", gsize, lsize, self.rays, self.cam, u32(w), u32(self.height), u32(0), u32(y0), u32(w),
+                     u32(n), u32(sample), u32(self.spp), u32(self.seed), u32(jit))
+        self._launch("intersect", gsize, lsize, self.rays, self.hits, u32(n), *self.geom)
+        self._launch("surface", gsize, lsize, self.rays, self.hits, self.surf, u32(n), *self.geom,
+                     *self.surface_args, aov)
+
+    def staged_sample(self, gsize, lsize, n, y0, sample):
+        """One sample of the tile through the five stage kernels; the shade stage's event."""
+        u32, cs = np.uint32, self.cs
+        self.trace(gsize, lsize, n, y0, sample, self.jitter, None)
+        if len(cs.lights):
+            self._launch("shadow", gsize, lsize, self.surf, self.vis, u32(n), *self.geom, *self.light)
+        return self._launch("shade", gsize, lsize, self.rays, self.surf, self.vis, u32(n), self.accum, *self.light,
+                            cs.ambient, cs.background)

@@ -1,0 +1,250 @@
+"""Rendering on a Dask cluster (texray.renderer.distributed) and in bands of rows: the
+same image as one local render, bit for bit (a band's pixels depend on the image, not
+on how it is cut), for render(client=), render(rows=), render_frames and the command
+line; a worker killed mid-render changes nothing; errors on a worker arrive as the
+same texray exception. One LocalCluster of two worker processes (one thread each)
+serves the module."""
+import copy
+import json
+import os
+import signal
+import sys
+
+import numpy as np
+import pytest
+
+import texray as tx
+from texray.errors import DeviceError, SceneError
+from texray.io.images import read_image
+from texray.renderer import adaptive, distributed, tiling
+
+dd = pytest.importorskip("dask.distributed")
+
+
+@pytest.fixture(scope="module")
+def client():
+    with dd.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            dd.Client(cluster) as c:
+        c.wait_for_workers(2, timeout=120)
+        yield c
+    for c in distributed._clients.values():
+        c.close()
+    distributed._clients.clear()
+
+
+@pytest.fixture
+def many_bands(monkeypatch):
+    """Bands of one block (16 rows) even for small test images."""
+    monkeypatch.setattr(distributed, "MIN_BAND_SAMPLES", 1)
+
+
+def _scene(scenes_dir):
+    return tx.Scene.load(scenes_dir / "showcase.toml")
+
+
+def test_bands_of_rows_equal_the_whole_image(scenes_dir, device, monkeypatch):
+    """Rows rendered alone equal the whole image's, also where the fused kernel sums its
+    samples in several launches and the tiles differ (the launch grouping comes from the
+    image, not the tile)."""
+    scene = _scene(scenes_dir)
+    monkeypatch.setattr(tiling, "MAX_FUSED_SAMPLES", 2 * 48 * 40)     # 2 samples per launch at 48 x 40
+    assert tiling.fused_samples(48, 40, 5) == 2
+    whole = tx.render(scene, 48, 40, 5, device=device, aovs=("depth",))
+    tiled = tx.render(scene, 48, 40, 5, device=device, tile_pixels=48 * 7)
+    assert tiled.stats["tiles"] == 6
+    np.testing.assert_array_equal(tiled.rgb, whole.rgb)
+    for rows in ((0, 40), (3, 17), (16, 32), (39, 40)):
+        band = tx.render(scene, 48, 40, 5, device=device, rows=rows, aovs=("depth",), tile_pixels=48 * 4)
+        assert band.rgb.shape == (rows[1] - rows[0], 48, 3)
+        np.testing.assert_array_equal(band.rgb, whole.rgb[rows[0]:rows[1]])
+        np.testing.assert_array_equal(band.aov["depth"], whole.aov["depth"][rows[0]:rows[1]])
+
+
+def test_adaptive_sampling_is_independent_of_the_tiles(scenes_dir, device):
+    """A pixel's samples depend on its block of 16 rows only: any tiling of whole blocks,
+    and any band of whole blocks, gives the same image and sample counts."""
+    scene = _scene(scenes_dir)
+    whole = tx.render(scene, 40, 48, 24, device=device, adaptive=0.05)
+    tiled = tx.render(scene, 40, 48, 24, device=device, adaptive=0.05, tile_pixels=40 * 20)
+    assert tiled.stats["tile_rows"] == 16 and tiled.stats["tiles"] == 3
+    np.testing.assert_array_equal(tiled.rgb, whole.rgb)
+    assert tiled.stats["samples"] == whole.stats["samples"] < 40 * 48 * 24
+    band = tx.render(scene, 40, 48, 24, device=device, adaptive=0.05, rows=(16, 48))
+    np.testing.assert_array_equal(band.rgb, whole.rgb[16:])
+    with pytest.raises(SceneError, match="multiples of 16"):
+        tx.render(scene, 40, 48, 24, device=device, adaptive=0.05, rows=(8, 48))
+
+
+@pytest.mark.parametrize("rows, match", [((5, 5), "0 <= y0 < y1"), ((0, 41), "0 <= y0 < y1"), ((-1, 3), "0 <= y0"),
+                                         ((1.0, 3), "two integers"), ("0:3", "two integers"), ((1, 2, 3), "two")])
+def test_bad_rows_are_named(rows, match):
+    with pytest.raises(SceneError, match=r"rows: .*" + match):
+        tx.render(tx.Scene(), 8, 40, 1, rows=rows)
+
+
+def test_band_sizes():
+    B = adaptive.BLOCK_ROWS
+    assert distributed.band_rows(640, 480, 16, 2) == 64                  # 8 bands: 4 per worker, whole blocks
+    assert distributed.band_rows(640, 480, 16, 1) == 128                 # 4 bands
+    assert distributed.band_rows(64, 48, 1, 8) == 48                     # too little work for two bands
+    assert distributed.band_rows(4096, 4096, 64, 100) == B               # no more bands than blocks
+    assert distributed.band_rows(100, 7, 1000, 4) == 7
+    for w, h, spp, n in ((640, 480, 16, 2), (1920, 1080, 64, 16), (33, 1000, 3, 3)):
+        r = distributed.band_rows(w, h, spp, n)
+        assert (r % B == 0 or r == h) and 0 < r <= h
+
+
+def test_render_on_the_cluster_equals_the_local_render(scenes_dir, device, client, many_bands):
+    scene = _scene(scenes_dir)
+    local = tx.render(scene, 64, 72, 6, device=device, aovs=("uv", "object_id"))
+    fractions = []
+    far = tx.render(scene, 64, 72, 6, device=device, aovs=("uv", "object_id"), client=client,
+                    progress=fractions.append)
+    d = far.stats["dask"]
+    assert d["bands"] == 5 and d["band_rows"] == 16 and d["workers"] == 2
+    np.testing.assert_array_equal(far.rgb, local.rgb)
+    for name in ("uv", "object_id"):
+        np.testing.assert_array_equal(far.aov[name], local.aov[name])
+    assert far.stats["samples"] == local.stats["samples"] and far.stats["triangles"] == local.stats["triangles"]
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0 and len(fractions) == 5
+    # the scene went to the workers once: the second render sends nothing
+    again = tx.render(scene, 64, 72, 6, device=device, aovs=("uv", "object_id"), client=client)
+    assert d["shipped"] and d["ship_bytes"] > 0 and not again.stats["dask"]["shipped"]
+    np.testing.assert_array_equal(again.rgb, local.rgb)
+    # a band, adaptive sampling, and a sink given the bands in order
+    ada = tx.render(scene, 64, 72, 16, device=device, adaptive=0.05, rows=(16, 72))
+    far_ada = tx.render(scene, 64, 72, 16, device=device, adaptive=0.05, rows=(16, 72), client=client)
+    np.testing.assert_array_equal(far_ada.rgb, ada.rgb)
+    assert far_ada.stats["samples"] == ada.stats["samples"]
+    got = []
+    tx.render(scene, 64, 72, 6, device=device, client=client, sink=lambda y0, rgb, aov: got.append((y0, rgb)))
+    assert [y0 for y0, _ in got] == [0, 16, 32, 48, 64]
+    np.testing.assert_array_equal(np.concatenate([rgb for _, rgb in got]), local.rgb)
+
+
+def test_a_worker_killed_mid_render_changes_nothing(scenes_dir, device, client, many_bands):
+    scene = _scene(scenes_dir)
+    local = tx.render(scene, 48, 160, 24, device=device)
+    pids = sorted(client.run(os.getpid).values())
+    killed = []
+
+    def kill_one(fraction):
+        if not killed:                    # after the first band: a band in flight dies with its worker
+            killed.append(fraction)
+            os.kill(pids[0], signal.SIGKILL)
+
+    far = tx.render(scene, 48, 160, 24, device=device, client=client, progress=kill_one)
+    assert killed and killed[0] < 1.0
+    np.testing.assert_array_equal(far.rgb, local.rgb)
+    client.wait_for_workers(2, timeout=120)      # the nanny restarts it for the next tests
+
+
+def test_worker_errors_arrive_as_texray_errors(scenes_dir, client):
+    scene = _scene(scenes_dir)
+    with pytest.raises(DeviceError, match="no-such-device"):
+        tx.render(scene, 16, 16, 1, device="no-such-device", client=client)
+
+
+def test_bad_clients_and_a_missing_dask_are_named(monkeypatch):
+    with pytest.raises(SceneError, match="render: client: expected a dask.distributed.Client"):
+        tx.render(tx.Scene(), 8, 8, 1, client=42)
+    monkeypatch.setitem(sys.modules, "dask.distributed", None)      # as if not installed
+    with pytest.raises(SceneError, match=r"pip install 'texray\[dask\]'"):
+        tx.render(tx.Scene(), 8, 8, 1, client="tcp://127.0.0.1:1")
+    with pytest.raises(SceneError, match=r"--workers: .*pip install 'texray\[dask\]'"):
+        with distributed.cluster_client(None, 2):
+            pass
+
+
+def test_render_frames_equal_single_renders(scenes_dir, device, client, tmp_path, many_bands):
+    scene = _scene(scenes_dir)
+    cameras = [tx.Camera(eye=(3.6 * np.sin(a), 1.4, 3.6 * np.cos(a)), look_at=(0, 0.7, 0), fov_y=32)
+               for a in (0.0, 0.7, 1.4)]
+    singles = []
+    for cam in cameras:
+        scene.camera = cam
+        singles.append(tx.render(scene, 40, 32, 4, device=device).rgb)
+    frames = tx.render_frames(scene, cameras, 40, 32, 4, device=device)
+    far = tx.render_frames(scene, cameras, 40, 32, 4, device=device, client=client)
+    assert len(frames) == len(far) == 3
+    for one, a, b in zip(singles, frames, far):
+        np.testing.assert_array_equal(a.rgb, one)
+        np.testing.assert_array_equal(b.rgb, one)
+    assert not np.array_equal(singles[0], singles[1])
+    stats = tx.render_frames(scene, cameras, 40, 32, 4, device=device, client=client,
+                             paths=str(tmp_path / "f{:02d}.exr"))
+    assert len(stats) == 3 and all("dask" in s for s in stats)
+    for i, one in enumerate(singles):
+        back, _ = read_image(tmp_path / f"f{i:02d}.exr")
+        np.testing.assert_allclose(back[..., :3], one, rtol=1e-3, atol=1e-3)     # half floats
+
+
+def test_render_frames_of_moving_instances_rebuild_only_the_top_level(device, client):
+    from texray.compile import instances as inst_blas
+    from texray.procedural import meshes
+    inst_blas._TREES.clear()
+    md = meshes.torus(24, 12)
+    mesh = tx.Mesh(md.positions, md.faces, md.uvs, md.normals, tx.Material(diffuse=(0.8, 0.3, 0.2)))
+    base = tx.Scene(camera=tx.Camera(eye=(0, 0, 4), look_at=(0, 0, 0)),
+                    lights=[tx.PointLight(position=(2, 3, 4), intensity=(20, 20, 20))])
+    scenes = []
+    for f in range(3):
+        s = copy.copy(base)
+        s.objects = [tx.Instance(mesh, tx.Transform(translate=(i - 1.0, 0.2 * f, 0), rotate=(30 * f, 10 * i, 0),
+                                                    scale=0.4)) for i in range(3)]
+        scenes.append(s)
+    local = tx.render_frames(scenes, None, 48, 48, 2, device=device, cache=False)
+    assert [im.stats["blas_reused"] for im in local] == [0, 1, 1]
+    far = tx.render_frames(scenes, None, 48, 48, 2, device=device, cache=False, client=client)
+    assert [im.stats["blas_reused"] for im in far] == [1, 1, 1]     # the trees are still held
+    for a, b, s in zip(local, far, scenes):
+        np.testing.assert_array_equal(a.rgb, b.rgb)
+        np.testing.assert_array_equal(a.rgb, tx.render(s, 48, 48, 2, device=device, cache=False).rgb)
+    assert not np.array_equal(local[0].rgb, local[1].rgb)
+
+
+@pytest.mark.parametrize("args, match", [
+    (([],), "no frames"), ((tx.Scene(),), "cameras: expected a list"), ((tx.Scene(), [1]), r"cameras\[0\]"),
+    (([tx.Scene(), 3],), r"scenes\[1\]"), (([tx.Scene()], [tx.Camera(), tx.Camera()]), "2 cameras for 1 scenes"),
+    ((tx.Scene(), [tx.Camera()], 8, 8, 1, {"paths": "one.png"}), "a single path"),
+    ((tx.Scene(), [tx.Camera()], 8, 8, 1, {"paths": ["a.png", "b.png"]}), "expected 1 paths"),
+    ((tx.Scene(), [tx.Camera()], 8, 8, 1, {"sink": print}), "unknown option 'sink'")])
+def test_render_frames_bad_input_is_named(args, match):
+    kw = args[-1] if isinstance(args[-1], dict) else {}
+    pos = args[:-1] if kw else args
+    with pytest.raises(SceneError, match=match):
+        tx.render_frames(*pos, **kw)
+
+
+def test_the_cli_on_a_scheduler_writes_the_same_file(scenes_dir, device, client, tmp_path, many_bands, capsys,
+                                                     monkeypatch):
+    from texray.cli import main
+    scene = str(scenes_dir / "showcase.toml")
+    args = ["render", scene, "--width", "48", "--height", "40", "--spp", "3", "--device", str(device), "--no-cache"]
+    assert main(args + ["-o", str(tmp_path / "local.png")]) == 0
+    monkeypatch.setattr(distributed, "CONNECT_TIMEOUT", "2s")
+    address = client.scheduler.address
+    assert main(args + ["-o", str(tmp_path / "far.png"), "--scheduler", address]) == 0
+    assert "on Dask: 3 bands of 16 rows over 2 workers" in capsys.readouterr().out
+    assert (tmp_path / "far.png").read_bytes() == (tmp_path / "local.png").read_bytes()
+    assert main(args + ["-o", str(tmp_path / "x.png"), "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    assert "cannot reach the Dask scheduler" in capsys.readouterr().err
+
+
+def test_bench_sweeps_run_as_tasks_with_the_same_errors(device, client, tmp_path, capsys):
+    """``texray bench --scheduler``: every sweep point is a task on the cluster (the
+    reference renders in bands); the errors equal a local run's exactly."""
+    from texray.cli import main
+    args = ["bench", "--device", str(device), "--rays", "0", "--scenes", "", "--repeat", "1",
+            "--sweep", "globe,terrain", "--sweep-size", "24x16", "--ref-spp", "8", "--sweep-spp", "1,2"]
+    here, far = tmp_path / "here.json", tmp_path / "far.json"
+    assert main(args + ["--json", str(here)]) == 0
+    assert main(args + ["--json", str(far), "--scheduler", client.scheduler.address]) == 0
+    capsys.readouterr()
+    (a,), (b,) = (list(json.loads(p.read_text())["devices"].values()) for p in (here, far))
+    for scene in ("globe", "terrain"):
+        sa, sb = a["sweeps"][scene]["series"], b["sweeps"][scene]["series"]
+        assert list(sa) == list(sb) and len(sa) >= 2
+        for name in sa:
+            assert [(p["label"], p["rmse"]) for p in sa[name]] == [(p["label"], p["rmse"]) for p in sb[name]]
+            assert all(p["frame_s"]["median"] > 0 for p in sb[name])
