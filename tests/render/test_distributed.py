@@ -227,6 +227,9 @@ def test_the_cli_on_a_scheduler_writes_the_same_file(scenes_dir, device, client,
     assert main(args + ["-o", str(tmp_path / "far.png"), "--scheduler", address]) == 0
     assert "on Dask: 3 bands of 16 rows over 2 workers" in capsys.readouterr().out
     assert (tmp_path / "far.png").read_bytes() == (tmp_path / "local.png").read_bytes()
+    assert main(args + ["-o", str(tmp_path / "own.png"), "--workers", "1"]) == 0     # a LocalCluster of its own
+    assert "over 1 workers" in capsys.readouterr().out
+    assert (tmp_path / "own.png").read_bytes() == (tmp_path / "local.png").read_bytes()
     assert main(args + ["-o", str(tmp_path / "x.png"), "--scheduler", "tcp://127.0.0.1:9"]) == 2
     assert "cannot reach the Dask scheduler" in capsys.readouterr().err
 

@@ -121,11 +121,13 @@ def compiled(scene, shadows=True, texture_filter=None, enabled=True) -> tuple[Co
         cs, meta = hit
         scene.validate()                       # the camera is not in the key: check it as compile_scene does
         cs.camera = copy.deepcopy(scene.camera)
+        cs.source_key = key
         _replay(meta.get("warnings", ()))
         stats["scene_cache"] = "hit"
         return cs, stats
     t2 = time.perf_counter()
     cs, caught = _compile_recording(scene, shadows, texture_filter)
+    cs.source_key = key
     t3 = time.perf_counter()
     stats["scene_cache"] = "miss"
     if path is not None and t3 - t2 >= conf.min_seconds:

@@ -62,6 +62,7 @@ class CompiledScene:
     instances: np.ndarray | None = None   # layout.INSTANCE, top-level leaf order (kernels/accel/instance.h)
     steps_s: dict | None = None           # seconds of each step of compile_scene (image.stats["compile_steps_s"])
     blas_reused: int = 0                  # instanced meshes whose BLAS came from an earlier compile (instances.py)
+    source_key: str | None = None         # the scene cache's key of the scene and options it was compiled from
 
     def device_bytes(self) -> dict[str, int]:
         """Bytes each uploaded array takes on the device (absent or empty arrays are not uploaded)."""
