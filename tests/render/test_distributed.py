@@ -156,7 +156,7 @@ def test_bad_clients_and_a_missing_dask_are_named(monkeypatch):
             pass
 
 
-def test_render_frames_equal_single_renders(scenes_dir, device, client, tmp_path, many_bands):
+def test_render_frames_equal_single_renders(scenes_dir, device, client, tmp_path, many_bands, monkeypatch):
     scene = _scene(scenes_dir)
     cameras = [tx.Camera(eye=(3.6 * np.sin(a), 1.4, 3.6 * np.cos(a)), look_at=(0, 0.7, 0), fov_y=32)
                for a in (0.0, 0.7, 1.4)]
@@ -164,8 +164,13 @@ def test_render_frames_equal_single_renders(scenes_dir, device, client, tmp_path
     for cam in cameras:
         scene.camera = cam
         singles.append(tx.render(scene, 40, 32, 4, device=device).rgb)
-    frames = tx.render_frames(scene, cameras, 40, 32, 4, device=device)
-    far = tx.render_frames(scene, cameras, 40, 32, 4, device=device, client=client)
+    from texray.compile import cache as scene_cache
+    compiles = []
+    real = scene_cache.compile_scene
+    monkeypatch.setattr(scene_cache, "compile_scene", lambda *a, **k: compiles.append(1) or real(*a, **k))
+    frames = tx.render_frames(scene, cameras, 40, 32, 4, device=device, cache=False)
+    far = tx.render_frames(scene, cameras, 40, 32, 4, device=device, client=client, cache=False)
+    assert len(compiles) == 2              # the scene is compiled once per call, not once per frame
     assert len(frames) == len(far) == 3
     for one, a, b in zip(singles, frames, far):
         np.testing.assert_array_equal(a.rgb, one)

@@ -43,31 +43,31 @@ def render_frames(scenes, cameras=None, width=640, height=480, spp=1, *, client=
     V.callable_or_none(progress, "progress", "render_frames: ")
     width, height, spp, _ = V.render_settings(width, height, spp, options.get("seed", 0))
     dask = None if client is None else distributed.connect(client, "render_frames: client")
-    out = []
+    out, compiled = [], {}
     if dask is None:
-        compiled = {}
         for i, (scene, camera) in enumerate(frames):
-            cs = _compiled_once(compiled, scene, options)
+            cs, cache_stats = _compiled_once(compiled, scene, options)
             image = render(scene if isinstance(scene, Scene) else None, width, height, spp, compiled=cs,
                            camera=camera, **{k: v for k, v in options.items() if k not in ("texture_filter", "cache")})
+            image.stats.update(cache_stats)
             out.append(_finish(image, paths, i))
             if progress is not None:
                 progress((i + 1) / len(frames))
         return out
+    aovs, adaptive = tuple(options.get("aovs", ())), options.get("adaptive")
+    specialize, pipeline = options.get("specialize", True), options.get("pipeline", "fused")
+    band_options = {"device": options.get("device"), "seed": options.get("seed", 0),
+                    "jitter": options.get("jitter", True), "aovs": aovs, "adaptive": adaptive, "pipeline": pipeline,
+                    "local_size": options.get("local_size"), "memory_limit": options.get("memory_limit"),
+                    "tile_pixels": options.get("tile_pixels")}
     pending = []
     for scene, camera in frames:
         t0 = time.perf_counter()
-        aovs = tuple(options.get("aovs", ()))
-        adaptive = options.get("adaptive")
-        cs, _, cache_stats = prepare(scene, None, options.get("shadows", True), options.get("texture_filter"),
-                                     aovs, options.get("specialize", True), options.get("cache", True), adaptive)
-        stats = scene_stats(cs, width, height, spp, options.get("specialize", True), options.get("pipeline", "fused"),
-                            adaptive, cache_stats)
+        base, cache_stats = _compiled_once(compiled, scene, options)
+        cs, _, _ = prepare(scene if isinstance(scene, Scene) else None, base, options.get("shadows", True), None,
+                           aovs, specialize, True, adaptive)
+        stats = scene_stats(cs, width, height, spp, specialize, pipeline, adaptive, cache_stats)
         stats["scene_compile_s"] = time.perf_counter() - t0
-        band_options = {"device": options.get("device"), "seed": options.get("seed", 0),
-                        "jitter": options.get("jitter", True), "aovs": aovs, "adaptive": adaptive,
-                        "pipeline": options.get("pipeline", "fused"), "local_size": options.get("local_size"),
-                        "memory_limit": options.get("memory_limit"), "tile_pixels": options.get("tile_pixels")}
         pending.append((distributed.submit_bands(dask, cs, camera, width, height, spp, None, band_options), stats))
     for i, (bands, stats) in enumerate(pending):
         got = bands.collect()
@@ -128,17 +128,18 @@ def _paths(paths, n):
 
 
 def _compiled_once(compiled, scene, options):
-    """The compiled form of ``scene``, compiled (or read from the scene cache) on its
-    first frame only."""
+    """(the compiled form of ``scene``, the scene cache's stats): compiled (or read from
+    the scene cache) on the scene's first frame only; later frames of the same scene
+    report the cache as "off"."""
     if isinstance(scene, CompiledScene):
-        return scene
-    cs = compiled.get(id(scene))
-    if cs is None:
-        cs, _ = scene_cache.compiled(scene, shadows=options.get("shadows", True),
-                                     texture_filter=options.get("texture_filter"),
-                                     enabled=options.get("cache", True))
-        compiled[id(scene)] = cs
-    return cs
+        return scene, scene_cache.off_stats()
+    got = compiled.get(id(scene))
+    if got is None:
+        got = compiled[id(scene)] = scene_cache.compiled(scene, shadows=options.get("shadows", True),
+                                                         texture_filter=options.get("texture_filter"),
+                                                         enabled=options.get("cache", True))
+        return got
+    return got[0], scene_cache.off_stats()
 
 
 def _finish(image, paths, i):
