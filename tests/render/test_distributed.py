@@ -143,6 +143,8 @@ def test_worker_errors_arrive_as_texray_errors(scenes_dir, client):
     scene = _scene(scenes_dir)
     with pytest.raises(DeviceError, match="no-such-device"):
         tx.render(scene, 16, 16, 1, device="no-such-device", client=client)
+    with pytest.raises(SceneError, match="each worker chooses its device"):
+        tx.render(scene, 16, 16, 1, device=object(), client=client)
 
 
 def test_bad_clients_and_a_missing_dask_are_named(monkeypatch):

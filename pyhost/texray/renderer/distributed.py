@@ -307,6 +307,10 @@ def _summary(r):
 def submit_bands(client, cs, camera, width, height, spp, rows, options) -> Bands:
     """Send the scene (once, :func:`ship`) and submit one task per band of ``rows``
     (None: the whole image)."""
+    device = options["device"]
+    if device is not None and (isinstance(device, bool) or not isinstance(device, (int, str))):
+        raise SceneError(f"render: device: on a cluster each worker chooses its device: name it by index or "
+                         f"name ('cpu', 'gpu', 0, 'NVIDIA'), not {V.show(device)}")
     y_start, y_end = (0, height) if rows is None else rows
     workers = len(client.scheduler_info().get("workers", {}))
     if workers == 0:
