@@ -132,9 +132,11 @@ def build(bmin, bmax, *, max_leaf=4, bins=16, kind=PRIM_TRIANGLE, t_trav=1.0,
 
 def node_area(nodes) -> np.ndarray:
     """Half surface area (float64) of each ``layout.BVH_NODE`` record's box."""
-    lo = nodes["bmin"].astype(np.float64)
-    ext = nodes["bmax"].astype(np.float64) - lo
-    return ext[:, 0] * ext[:, 1] + ext[:, 1] * ext[:, 2] + ext[:, 2] * ext[:, 0]
+    b0, b1 = nodes["bmin"], nodes["bmax"]          # per axis: no (n, 3) float64 copies
+    ex = b1[:, 0].astype(np.float64) - b0[:, 0]
+    ey = b1[:, 1].astype(np.float64) - b0[:, 1]
+    ez = b1[:, 2].astype(np.float64) - b0[:, 2]
+    return ex * ey + ey * ez + ez * ex
 
 
 def sah_cost(nodes, t_trav=1.0, t_isect=1.0) -> float:
