@@ -312,7 +312,7 @@ def test_bad_input_names_the_field():
         tx.Sphere(material=tx.Material(displacement=tx.Displacement(tex, method="maxmip")), name="ball")
     with pytest.raises(tx.SceneError, match="ball: material.displacement.offset: .*below the centre"):
         tx.Sphere(radius=0.5, material=tx.Material(displacement=tx.Displacement(tex, offset=-1.0)), name="ball")
-    with pytest.raises(tx.SceneError, match="tri: material.displacement: triangle meshes are not displaced"):
+    with pytest.raises(tx.SceneError, match="tri: material.displacement: a triangle mesh is displaced by method='tessellate' only"):
         tx.Mesh(np.eye(3), np.array([[0, 1, 2]]), material=tx.Material(displacement=d), name="tri")
     from texray.compile import compile_scene
     s = tx.Scene(camera=tx.Camera())       # a material changed after the mesh was made: refused at compile

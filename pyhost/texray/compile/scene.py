@@ -27,6 +27,7 @@ from .heights import METHOD_ADAPTIVE, METHOD_IDS, height_key, pack_heights
 from .materials import MaterialTable
 from .objects import object_table
 from .tessellate import tessellate
+from .tessellate_mesh import tessellate_mesh
 from .textures import pack as pack_textures
 
 
@@ -145,13 +146,19 @@ def _sorted_objects(scene):
     displaced = []
     for obj_id, obj in enumerate(scene.objects):
         d = getattr(obj.material, "displacement", None)
-        if isinstance(obj, Instance):            # Mesh validation refuses displacement
+        if isinstance(obj, Instance):
+            if any(m.displacement is not None for m in obj.materials):
+                raise SceneError(f"{obj.name}: material.displacement: an instanced mesh is not displaced; "
+                                 "tessellate it (texray.compile.tessellate_mesh) and instance the result")
             by_kind[Instance].append((obj_id, obj))
+        elif isinstance(obj, Mesh):
+            ds = [m.displacement for m in obj.materials if m.displacement is not None]
+            if any(d.method != "tessellate" for d in ds):    # Mesh validation refuses these; changed since
+                raise SceneError(f"{obj.name}: material.displacement: a triangle mesh is displaced by "
+                                 "method='tessellate' only (no bounding volume for the per-pixel search)")
+            by_kind[Mesh].append((obj_id, tessellate_mesh(obj) if ds else obj))
         elif d is None:
             by_kind[type(obj)].append((obj_id, obj))
-        elif isinstance(obj, Mesh):          # Mesh validation refuses displacement; the material changed since
-            raise SceneError(f"{obj.name}: material.displacement: triangle meshes are not displaced (no sound "
-                             "bounding volume chosen); use a quad, sphere or cylinder")
         elif d.method == "tessellate":
             by_kind[Mesh].append((obj_id, tessellate(obj)))
         else:

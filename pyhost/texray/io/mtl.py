@@ -18,8 +18,8 @@ The rule (also in the README, "Materials from mesh files"):
 ``-s``, ``-o``, ``-clamp on``  the texture's UV scale and offset, clamp wrap (else repeat)
 ``Ka``, ``Ni``, ``Tf``         read and unused: ambient is the scene's times kd; no refraction
 ``d``/``Tr``/``map_d``, ``Ke``, ``disp``  unused with a warning when they would change the look
-                               (texray's surfaces are opaque and do not emit; triangle meshes
-                               are not displaced)
+                               (texray's surfaces are opaque and do not emit; ``disp`` is not
+                               read: a mesh is displaced by a Displacement(method="tessellate"))
 anything else                  ignored, listed in one warning per library
 =============================  =====================================================
 """
@@ -228,7 +228,7 @@ def _material(e, obj_path, textures, unused):
     if any(v.get("ke", [0.0])) or "map_Ke" in maps:
         unused.add(f"{e.name}: Ke/map_Ke (surfaces do not emit; use point lights)")
     if "disp" in maps:
-        unused.add(f"{e.name}: disp (triangle meshes are not displaced)")
+        unused.add(f"{e.name}: disp (not read; displace the mesh with a Displacement(method='tessellate'))")
     if "refl" in maps:
         unused.add(f"{e.name}: refl (no reflections: direct illumination)")
     try:

@@ -128,9 +128,10 @@ class Mesh:
             V.instance(m, Material, field_, where)
             m.validate(f"{where}{field_}.")
             d = m.displacement
-            if d is not None and d.method != "tessellate":    # tessellated shapes are meshes with the shape's material
-                raise SceneError(f"{where}{field_}.displacement: triangle meshes are not displaced (no sound "
-                                 "bounding volume chosen); use a quad, sphere or cylinder")
+            if d is not None and d.method != "tessellate":    # texray.compile.tessellate_mesh
+                raise SceneError(f"{where}{field_}.displacement: a triangle mesh is displaced by "
+                                 f"method='tessellate' only (no bounding volume for the per-pixel search), got "
+                                 f"{d.method!r}; or use a quad, sphere or cylinder")
         if self.material_ids is None:
             if len(mats) > 1:
                 raise SceneError(f"{where}material_ids: required with a list of {len(mats)} materials "
