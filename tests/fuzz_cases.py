@@ -914,8 +914,9 @@ def _valid_texture(ch, L, role="colour", allow_uvt=True):
     return L.var("tex", expr)
 
 
-def _valid_material(ch, L, kind, parallelogram=False):
-    """A valid material for an object of ``kind`` (mesh, sphere, cylinder, quad)."""
+def _valid_material(ch, L, kind, parallelogram=False, mapped=False):
+    """A valid material for an object of ``kind`` (mesh, sphere, cylinder, quad); ``mapped``:
+    the object has a projection mapping (a displaced mesh is tessellated from its own uvs)."""
     kw = {}
     if ch.boolean(0.5):
         kw["diffuse"] = _valid_texture(ch, L)
@@ -960,10 +961,12 @@ def _valid_material(ch, L, kind, parallelogram=False):
     elif normal == "normal_map":
         kw["normal_map"] = call("tx.NormalMap", _valid_texture(ch, L, "normal"),
                                 convention=ch.choice(["opengl", "directx"]), space=ch.choice(["tangent", "object"]))
-    if kind in ("sphere", "cylinder", "quad") and ch.boolean(0.25):
+    if kind in ("sphere", "cylinder", "quad") + (() if mapped else ("mesh",)) and ch.boolean(0.25):
         methods = ["tessellate"] + (["search", "maxmip"] if parallelogram or kind != "quad" else [])
         if kind != "quad":
             methods.remove("maxmip")
+        if kind == "mesh":                         # texray.compile.tessellate_mesh
+            methods = ["tessellate"]
         method = ch.choice(methods)
         hkind = ch.choice(["bricks_height", "noise"])
         htex = L.var("height", call("tx.Texture.procedural", hkind, size=ch.choice([8, 16, 32]),
@@ -1087,7 +1090,7 @@ def gen_random_scene(ch, knobs=frozenset()) -> Case:
             else:
                 o = call("tx.Quad", *p, material=mat, transform=tf_world, **uvs, **extra)
         elif kind == "mesh":
-            mat = _valid_material(ch, L, "mesh")
+            mat = _valid_material(ch, L, "mesh", mapped=mapping is not None)
             gen = ch.choice(["uv_sphere", "torus", "grid", "vase"])
             args = {"uv_sphere": (ch.integer(3, 12), ch.integer(2, 8)), "torus": (ch.integer(3, 12), ch.integer(3, 8)),
                     "grid": (ch.integer(1, 4), ch.integer(1, 4)), "vase": (ch.integer(3, 12), ch.integer(3, 8))}[gen]
@@ -1108,7 +1111,7 @@ def gen_random_scene(ch, knobs=frozenset()) -> Case:
                 o = call("tx.Mesh", Code(f"{m}.positions"), Code(f"{m}.faces"), uvs=Code(f"{m}.uvs"),
                          normals=Code(f"{m}.normals") if smooth else None, material=mat, transform=tf, **extra)
         else:
-            mat = _valid_material(ch, L, "mesh")
+            mat = _valid_material(ch, L, "mesh", mapped=mapping is not None)
             tf = call("tx.Transform", translate=Code(f"tuple(O + S * np.array({lit(c)}))"), rotate=vec3(ch, -180, 180),
                       scale=Code(f"S * {r3(size * ch.floats(0.3, 1.2))}"))
             o = call("tx.Mesh.load", Code(f"asset({ch.choice(OBJ_ASSETS)!r})"), material=mat, transform=tf,

@@ -75,7 +75,7 @@ def tessellate_mesh(mesh, resolution=None) -> Mesh:
         th, tw = d.texture.shape[:2]
         sel = np.flatnonzero(fmat == k)
         duv = uv[edges[sel, :, 1]] - uv[edges[sel, :, 0]]
-        texels = np.hypot(duv[..., 0] * tw, duv[..., 1] * th)
+        texels = np.nan_to_num(np.hypot(duv[..., 0] * tw, duv[..., 1] * th), nan=MAX_LEVEL, posinf=MAX_LEVEL)
         want[sel] = np.clip(np.ceil(rate * texels), 1, MAX_LEVEL).astype(np.int64)
     edge_level = np.ones(len(uniq), np.int64)
     np.maximum.at(edge_level, edge_id.ravel(), want.ravel())
@@ -195,8 +195,19 @@ def _heights(disp, which, uv):
             continue
         m = which == k
         if m.any():
-            out[m] = height(d.heights(), uv[m, 0], uv[m, 1], d.wrap)
+            u, v = _periodic(uv[m, 0], d.wrap), _periodic(uv[m, 1], d.wrap)
+            out[m] = height(d.heights(), u, v, d.wrap)
     return out
+
+
+def _periodic(x, wrap):
+    """``x`` moved by whole periods of the wrap mode (1 for repeat, 2 for mirror; clamp:
+    into [-1, 2]): the same height, and texel indices that fit an int64 whatever the uvs."""
+    if wrap == "repeat":
+        return x - np.floor(x)
+    if wrap == "mirror":
+        return x - 2.0 * np.floor(x / 2.0)
+    return np.clip(x, -1.0, 2.0)
 
 
 def _unit(v):
