@@ -36,6 +36,7 @@ def client():
 def many_bands(monkeypatch):
     """Bands of one block (16 rows) even for small test images."""
     monkeypatch.setattr(distributed, "MIN_BAND_SAMPLES", 1)
+    monkeypatch.setattr(distributed, "MIN_BAND_SECONDS", 0.0)
 
 
 def _scene(scenes_dir):
@@ -89,6 +90,10 @@ def test_band_sizes():
     assert distributed.band_rows(64, 48, 1, 8) == 48                     # too little work for two bands
     assert distributed.band_rows(4096, 4096, 64, 100) == B               # no more bands than blocks
     assert distributed.band_rows(100, 7, 1000, 4) == 7
+    # workers timed at 2e7 and 1e8 pixel samples per second (GPUs): bands of at least 0.1 s of work
+    assert distributed.band_rows(640, 480, 16, 2, rate=2e7) == 240       # 4.9M samples: 2 bands
+    assert distributed.band_rows(640, 480, 16, 2, rate=1e8) == 480       # the frame is 0.05 s: one
+    assert distributed.band_rows(640, 480, 16, 2, rate=1e5) == 64        # slower than the floor: as without
     for w, h, spp, n in ((640, 480, 16, 2), (1920, 1080, 64, 16), (33, 1000, 3, 3)):
         r = distributed.band_rows(w, h, spp, n)
         assert (r % B == 0 or r == h) and 0 < r <= h

@@ -48,6 +48,7 @@ from .frame import render_rows
 
 TASKS_PER_WORKER = 4          # bands per worker, for balance
 MIN_BAND_SAMPLES = 1 << 18    # pixel samples per band at least: ~0.1 s on one PoCL core at 16 spp
+MIN_BAND_SECONDS = 0.1        # ... and, once a client's workers were timed, this long a band at their rate
 SHIPPED_PER_CLIENT = 4        # compiled scenes kept on a cluster per client (newest first)
 UPLOADS_PER_WORKER = 2        # scenes whose device buffers a worker keeps
 INSTALL = "pip install 'texray[dask]'"
@@ -55,6 +56,7 @@ CONNECT_TIMEOUT = "10s"          # to reach a scheduler given by its address
 
 _clients: dict = {}                                   # scheduler address -> Client made for it
 _shipped: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # Client -> OrderedDict(key -> Future)
+_rates: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()     # Client -> pixel samples per second per task
 UPLOADS: "OrderedDict" = OrderedDict()                # on a worker: (key, device, features) -> Uploaded
 _uploads_lock = threading.Lock()
 
@@ -125,12 +127,15 @@ def cluster_client(scheduler=None, workers=None):
         yield client
 
 
-def band_rows(width, rows, spp, workers) -> int:
+def band_rows(width, rows, spp, workers, rate=None) -> int:
     """Rows per band for ``rows`` image rows of ``width`` pixels at ``spp`` samples on
     ``workers`` workers: a multiple of BLOCK_ROWS (or all the rows), about
-    TASKS_PER_WORKER bands per worker, none under MIN_BAND_SAMPLES pixel samples."""
+    TASKS_PER_WORKER bands per worker, none under MIN_BAND_SAMPLES pixel samples, nor,
+    with the workers' measured ``rate`` (pixel samples per second of one task), under
+    MIN_BAND_SECONDS of work: fast (GPU) workers get bigger bands."""
     blocks = -(-rows // BLOCK_ROWS)
-    by_overhead = max(1, width * rows * spp // MIN_BAND_SAMPLES)
+    least = max(MIN_BAND_SAMPLES, int(rate * MIN_BAND_SECONDS) if rate else 0, 1)
+    by_overhead = max(1, width * rows * spp // least)
     bands = max(1, min(blocks, TASKS_PER_WORKER * max(1, workers), by_overhead))
     return min(rows, -(-blocks // bands) * BLOCK_ROWS)
 
@@ -279,6 +284,8 @@ class Bands:
         for s in summaries:
             by_worker[s["worker"]] = by_worker.get(s["worker"], 0) + 1
         task_s = [s["render_s"] for s in summaries]
+        if sum(task_s) > 0:                # the workers' rate, for the next render's band size
+            _rates[self.client] = sum(s["samples"] for s in summaries) / sum(task_s)
         stats = {
             "device": ", ".join(sorted({s["device"] for s in summaries})),
             "render_s": wall, "samples": int(sum(s["samples"] for s in summaries)),
@@ -319,7 +326,7 @@ def submit_bands(client, cs, camera, width, height, spp, rows, options) -> Bands
         except (TimeoutError, OSError):
             raise DeviceError("render: client: the Dask cluster has no workers (waited 60 s)") from None
         workers = len(client.scheduler_info().get("workers", {}))
-    per = band_rows(width, y_end - y_start, spp, workers)
+    per = band_rows(width, y_end - y_start, spp, workers, _rates.get(client))
     fut, key, shipped = ship(client, cs)
     token = uuid.uuid4().hex[:12]
     bands = [(a, min(a + per, y_end)) for a in range(y_start, y_end, per)]
