@@ -134,11 +134,11 @@ def test_mixed_materials_and_errors(rng):
         compile_scene(tx.Scene(objects=[inst]))
     huge = tx.Displacement(tx.Texture(np.zeros((4096, 4096, 1), np.float32), name="big"), method="tessellate",
                            resolution=4)
-    many = tx.Mesh(np.concatenate([QUAD] * 4200), np.arange(12600).reshape(-1, 3),      # 4200 x 64^2 > 2^24
+    many = tx.Mesh(np.concatenate([QUAD] * 4200), np.arange(12600).reshape(-1, 3),      # 4200 x 256^2 > 2^24
                    uvs=np.concatenate([QUAD_UV] * 4200), material=tx.Material(displacement=huge), name="many")
     with pytest.raises(tx.SceneError, match=r"many: .*more than \d+"):
         tessellate_mesh(many)
-    assert MAX_LEVEL == 64
+    assert MAX_LEVEL == 256
 
 
 def test_a_displaced_uv_sphere_mesh_matches_the_displaced_sphere(rng, device):
@@ -167,3 +167,16 @@ def test_a_displaced_uv_sphere_mesh_matches_the_displaced_sphere(rng, device):
     hit = np.isfinite(da) & np.isfinite(db)
     assert hit.mean() > 0.3 and np.mean(np.isfinite(da) != np.isfinite(db)) < 0.01
     assert np.quantile(np.abs(da[hit] - db[hit]) / da[hit], 0.99) < 0.01
+
+
+def test_the_bench_sweeps_a_displaced_mesh_by_its_tessellation():
+    """A scene with a displaced triangle mesh gets the tessellation series only (the search
+    does not apply to meshes); a quad scene keeps every method."""
+    from texray.bench import sweep
+    from texray.bench.suite import suite_paths
+    mesh = tx.Scene.load(suite_paths(["mesh_terrain"])["mesh_terrain"])
+    quad = tx.Scene.load(suite_paths(["terrain"])["terrain"])
+    assert not sweep.search_applies(mesh) and sweep.search_applies(quad)
+    (name, points), = sweep.displacement_series(mesh)
+    assert name == "tessellate" and [kw["resolution"] for _, kw in points] == list(sweep.DISP_TESSELLATIONS)
+    assert {n for n, _ in sweep.displacement_series(quad)} >= {"search M=0", "maxmip", "tessellate"}

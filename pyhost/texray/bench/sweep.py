@@ -23,7 +23,7 @@ import numpy as np
 from ..compile import compile_scene
 from ..errors import SceneError
 from ..renderer import render
-from ..scene import Bump, Displacement, Scene
+from ..scene import Bump, Displacement, Mesh, Scene
 from ..scene.shape import materials_of
 from .suite import median_spread
 from .suite import suite_paths
@@ -239,14 +239,26 @@ def displacement_scenes(names=DISP_SCENES):
     return out
 
 
+def search_applies(scene):
+    """The per-pixel search displaces quads, spheres and cylinders, not triangle meshes
+    (tessellated only): does every displaced object take it?"""
+    return not any(isinstance(o, Mesh) and any(m.displacement is not None for m in o.materials)
+                   for o in scene.objects)
+
+
 def displacement_series(scene):
     """The displacement sweep's series, one curve per method: the linear + binary search with N
     varying at each M, the adaptive search, maxmip (where every displaced object is a
     planar parallelogram quad) and the tessellation at 1 and 2 vertices per texel (compared
-    like the others with the reference, a tessellation at DISP_REF_RESOLUTION).
+    like the others with the reference, a tessellation at DISP_REF_RESOLUTION). A scene
+    with a displaced triangle mesh gets the tessellations only (:func:`search_applies`).
     [(series name, [(label, {"method": ..., knobs})])]."""
-    out = [(f"search M={m}", [(f"search N={n} M={m}", {"method": "search", "steps": n, "refine": m})
-                              for n in DISP_STEPS]) for m in DISP_REFINE]
+    out = []
+    if not search_applies(scene):
+        return [("tessellate", [(f"tessellate {r} vertex/texel", {"method": "tessellate", "resolution": r})
+                                for r in DISP_TESSELLATIONS])]
+    out += [(f"search M={m}", [(f"search N={n} M={m}", {"method": "search", "steps": n, "refine": m})
+                               for n in DISP_STEPS]) for m in DISP_REFINE]
     out.append(("search adaptive M=8", [(f"search adaptive N={n} M=8",
                                          {"method": "search", "steps": n, "refine": 8, "adaptive": True})
                                         for n in DISP_ADAPTIVE_STEPS]))

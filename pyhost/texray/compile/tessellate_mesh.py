@@ -26,7 +26,7 @@ from ..scene.heightfield import height
 from ..scene.mesh import Mesh
 from .. import validate as V
 
-MAX_LEVEL = 64                     # lattice cuts per edge at most (64^2 = 4096 triangles per triangle)
+MAX_LEVEL = 256                    # lattice cuts per edge at most (256^2 = 65536 triangles per triangle)
 MAX_TRIANGLES = 1 << 24            # the tessellation's size at most: a clear error instead of an exhausted host
 
 
