@@ -239,7 +239,7 @@ def test_textures_beyond_the_device_or_32_bit_offsets(monkeypatch):
 
 def test_render_checks_the_texel_buffer_against_the_device(monkeypatch):
     import sys
-    r = sys.modules["texray.renderer.render"]          # the module (texray.render is also the function)
+    r = sys.modules["texray.renderer.frame"]           # where render() checks the device (frame.device_program)
     seen = {}
 
     def check(nbytes, names, max_alloc):

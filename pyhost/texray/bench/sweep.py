@@ -253,20 +253,18 @@ def displacement_series(scene):
     like the others with the reference, a tessellation at DISP_REF_RESOLUTION). A scene
     with a displaced triangle mesh gets the tessellations only (:func:`search_applies`).
     [(series name, [(label, {"method": ..., knobs})])]."""
-    out = []
+    tessellate = ("tessellate", [(f"tessellate {r} vertex/texel", {"method": "tessellate", "resolution": r})
+                                 for r in DISP_TESSELLATIONS])
     if not search_applies(scene):
-        return [("tessellate", [(f"tessellate {r} vertex/texel", {"method": "tessellate", "resolution": r})
-                                for r in DISP_TESSELLATIONS])]
-    out += [(f"search M={m}", [(f"search N={n} M={m}", {"method": "search", "steps": n, "refine": m})
-                               for n in DISP_STEPS]) for m in DISP_REFINE]
+        return [tessellate]
+    out = [(f"search M={m}", [(f"search N={n} M={m}", {"method": "search", "steps": n, "refine": m})
+                              for n in DISP_STEPS]) for m in DISP_REFINE]
     out.append(("search adaptive M=8", [(f"search adaptive N={n} M=8",
                                          {"method": "search", "steps": n, "refine": 8, "adaptive": True})
                                         for n in DISP_ADAPTIVE_STEPS]))
     if maxmip_applies(scene):
         out.append(("maxmip", [("maxmip", {"method": "maxmip"})]))
-    out.append(("tessellate", [(f"tessellate {r} vertex/texel", {"method": "tessellate", "resolution": r})
-                               for r in DISP_TESSELLATIONS]))
-    return out
+    return out + [tessellate]
 
 
 DISP_ADAPTIVE_STEPS = (8, 32)

@@ -30,11 +30,6 @@ MAX_LEVEL = 256                    # lattice cuts per edge at most (256^2 = 6553
 MAX_TRIANGLES = 1 << 24            # the tessellation's size at most: a clear error instead of an exhausted host
 
 
-def needs_tessellation(mesh) -> bool:
-    """Whether some material of ``mesh`` has a "tessellate" displacement."""
-    return any(m.displacement is not None and m.displacement.method == "tessellate" for m in mesh.materials)
-
-
 def tessellate_mesh(mesh, resolution=None) -> Mesh:
     """The displaced surface of ``mesh`` as a new Mesh in world space (see the module
     docstring); faces whose material is not displaced are kept as they are (level 1

@@ -27,7 +27,6 @@ import contextlib
 import dataclasses
 import hashlib
 import os
-import pickle
 import threading
 import time
 import uuid
@@ -37,14 +36,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..compile.textures import check_device_limits
-from ..device import runtime
 from ..device.buffers import Uploaded
-from ..device.features import compile_options
 from ..errors import DeviceError, SceneError
 from .. import validate as V
 from .adaptive import BLOCK_ROWS
-from .frame import render_rows
+from .frame import ROW_OPTIONS, device_program, render_rows
 
 TASKS_PER_WORKER = 4          # bands per worker, for balance
 MIN_BAND_SAMPLES = 1 << 18    # pixel samples per band at least: ~0.1 s on one PoCL core at 16 spp
@@ -61,16 +57,23 @@ UPLOADS: "OrderedDict" = OrderedDict()                # on a worker: (key, devic
 _uploads_lock = threading.Lock()
 
 
-def connect(client, where="render: client"):
-    """The dask.distributed.Client for ``client`` (a Client, or a scheduler's address, for
-    which one Client per process is made and kept). SceneError without Dask installed
-    (saying what to install) or for anything else; DeviceError when the scheduler cannot
-    be reached."""
+def _dask(where):
+    """dask.distributed, imported on first use (texray does not need it otherwise);
+    SceneError saying what to install where it is missing."""
     try:
         import dask.distributed as dd
     except ImportError:
         raise SceneError(f"{where}: rendering on a Dask cluster needs dask.distributed, which is not "
                          f"installed: {INSTALL}") from None
+    return dd
+
+
+def connect(client, where="render: client"):
+    """The dask.distributed.Client for ``client`` (a Client, or a scheduler's address, for
+    which one Client per process is made and kept). SceneError without Dask installed
+    (saying what to install) or for anything else; DeviceError when the scheduler cannot
+    be reached."""
+    dd = _dask(where)
     if isinstance(client, dd.Client):
         return client
     if isinstance(client, str) and client:
@@ -117,11 +120,7 @@ def cluster_client(scheduler=None, workers=None):
         return
     if not isinstance(workers, int) or workers < 1:
         raise SceneError(f"--workers: expected a positive number of worker processes, got {V.show(workers)}")
-    try:
-        import dask.distributed as dd
-    except ImportError:
-        raise SceneError(f"--workers: a local Dask cluster needs dask.distributed, which is not installed: "
-                         f"{INSTALL}") from None
+    dd = _dask("--workers")
     with dd.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
             dd.Client(cluster) as client:
         yield client
@@ -174,7 +173,7 @@ def _for_workers(cs):
 
 def ship(client, cs):
     """(a Future of ``cs`` on every worker, its key, {"shipped": whether it was sent now,
-    "ship_bytes", "ship_s"}); a scene this client sent before, still held, is not sent again."""
+    "ship_bytes" (its arrays' bytes: all but a few kB of what is sent), "ship_s"}); a scene this client sent before, still held, is not sent again."""
     key = compiled_key(cs)
     held = _shipped.setdefault(client, OrderedDict())
     fut = held.get(key)
@@ -182,7 +181,7 @@ def ship(client, cs):
         held.move_to_end(key)
         return fut, key, {"shipped": False, "ship_bytes": 0, "ship_s": 0.0}
     slim = _for_workers(cs)
-    nbytes = len(pickle.dumps(slim, protocol=5))
+    nbytes = sum(v.nbytes for v in vars(slim).values() if isinstance(v, np.ndarray))   # the payload, not pickled twice
     t0 = time.perf_counter()
     fut = client.scatter(slim, broadcast=True, hash=False)
     fut.result()                       # wait: the ship time is a figure of its own
@@ -197,17 +196,10 @@ def render_band(cs, key, camera, width, height, spp, rows, options):
     device, seed, jitter, aovs, adaptive, pipeline, local_size, memory_limit,
     tile_pixels). Returns a dict: rows, rgb, aov, samples, render_s, worker, device."""
     t0 = time.perf_counter()
-    rt = runtime(options["device"])
-    if cs.texels is not None:
-        check_device_limits(cs.texels.nbytes, list(cs.texture_names), rt.device.max_mem_alloc_size)
-    prg = rt.program(compile_options(cs.features))
+    rt, prg, local = device_program(cs, options["device"], options["local_size"])
     build_s = time.perf_counter() - t0
-    local = rt.local_size(options["local_size"])
-    up = _uploaded(rt, cs, key)
-    out = render_rows(rt, prg, cs, camera, width, height, spp, rows, seed=options["seed"],
-                      jitter=options["jitter"], local=local, aovs=options["aovs"], adaptive=options["adaptive"],
-                      pipeline=options["pipeline"], memory_limit=options["memory_limit"],
-                      tile_pixels=options["tile_pixels"], uploaded=up)
+    out = render_rows(rt, prg, cs, camera, width, height, spp, rows, local=local, uploaded=_uploaded(rt, cs, key),
+                      **{k: options[k] for k in ROW_OPTIONS})
     return {"rows": rows, "rgb": out.rgb, "aov": out.aov, "samples": out.samples,
             "render_s": time.perf_counter() - t0, "worker": f"{os.uname().nodename}:{os.getpid()}",
             "device": rt.device.name.strip(), "tile_rows": out.tile_rows, "ray_buffer_bytes": out.ray_buffer_bytes,
@@ -236,7 +228,6 @@ class Bands:
     bands: list
     width: int
     rows: tuple
-    aovs: tuple
     ship: dict
     per_band: int
     workers: int
@@ -246,7 +237,7 @@ class Bands:
         """The image's rows (or, with ``sink``, each band given to it in order of y0 and
         not kept); raises a task's exception (the same texray class) after cancelling the
         other tasks."""
-        import dask.distributed as dd
+        dd = _dask("render: client")
         y_start, y_end = self.rows
         n = y_end - y_start
         rgb = np.empty((n, self.width, 3), np.float32) if sink is None else None
@@ -332,8 +323,8 @@ def submit_bands(client, cs, camera, width, height, spp, rows, options) -> Bands
     bands = [(a, min(a + per, y_end)) for a in range(y_start, y_end, per)]
     futures = [client.submit(render_band, fut, key, camera, width, height, spp, band, options,
                              key=f"texray-band-{token}-{band[0]}", pure=False) for band in bands]
-    return Bands(client=client, futures=futures, bands=bands, width=width, rows=(y_start, y_end),
-                 aovs=tuple(options["aovs"]), ship=shipped, per_band=per, workers=workers)
+    return Bands(client=client, futures=futures, bands=bands, width=width, rows=(y_start, y_end), ship=shipped,
+                 per_band=per, workers=workers)
 
 
 def render_bands(client, cs, camera, width, height, spp, rows, options, progress=None, sink=None) -> Collected:

@@ -16,13 +16,17 @@ from dataclasses import dataclass, field
 import numpy as np
 import pyopencl as cl
 
-from ..device import layout
+from ..compile.textures import check_device_limits
+from ..device import layout, runtime
 from ..device.buffers import Uploaded
+from ..device.features import compile_options
 from ..errors import DeviceError
 from .adaptive import BLOCK_ROWS, round_size, standard_error, still_active
 from .tiling import fused_samples, plan_rows
 
 STAGES = ("raygen", "intersect", "surface", "shadow", "shade")
+# render()'s settings that render_rows takes as they are (with the device and local size: a band's options)
+ROW_OPTIONS = ("seed", "jitter", "aovs", "adaptive", "pipeline", "memory_limit", "tile_pixels")
 PIPELINES = ("fused", "stages")
 # Bytes per in-flight ray besides the shadow bytes: Ray + Hit + Surface + accumulator.
 RAY_BYTES = layout.RAY.itemsize + layout.HIT.itemsize + layout.SURFACE.itemsize + 16
@@ -41,6 +45,15 @@ class Rows:
     ray_buffer_bytes: int
     upload_s: float
     stage_s: dict = field(default_factory=dict)
+
+
+def device_program(cs, device, local_size):
+    """(runtime, program, work-group size) to render ``cs`` on ``device``: the device's
+    limits checked against the scene's textures, the scene's program built (or cached)."""
+    rt = runtime(device)
+    if cs.texels is not None:
+        check_device_limits(cs.texels.nbytes, list(cs.texture_names), rt.device.max_mem_alloc_size)
+    return rt, rt.program(compile_options(cs.features)), rt.local_size(local_size)
 
 
 def per_ray_bytes(cs, fused, aovs, adaptive):

@@ -11,7 +11,7 @@ from ..scene import Camera, Scene
 from .. import validate as V
 from . import distributed
 from .image import Image
-from .render import prepare, render, scene_stats
+from .render import render, setup
 
 # render()'s keywords that render_frames passes on (sink, rows and compiled are its own business)
 OPTIONS = ("device", "seed", "jitter", "shadows", "aovs", "specialize", "local_size", "memory_limit", "tile_pixels",
@@ -44,31 +44,29 @@ def render_frames(scenes, cameras=None, width=640, height=480, spp=1, *, client=
     width, height, spp, _ = V.render_settings(width, height, spp, options.get("seed", 0))
     dask = None if client is None else distributed.connect(client, "render_frames: client")
     out, compiled = [], {}
+    per_frame = {k: v for k, v in options.items() if k not in ("texture_filter", "cache")}   # compile's own
     if dask is None:
         for i, (scene, camera) in enumerate(frames):
+            t0 = time.perf_counter()
             cs, cache_stats = _compiled_once(compiled, scene, options)
+            compile_s = time.perf_counter() - t0
             image = render(scene if isinstance(scene, Scene) else None, width, height, spp, compiled=cs,
-                           camera=camera, **{k: v for k, v in options.items() if k not in ("texture_filter", "cache")})
-            image.stats.update(cache_stats)
+                           camera=camera, **per_frame)
+            image.stats.update(cache_stats, scene_compile_s=image.stats["scene_compile_s"] + compile_s)
             out.append(_finish(image, paths, i))
             if progress is not None:
                 progress((i + 1) / len(frames))
         return out
-    aovs, adaptive = tuple(options.get("aovs", ())), options.get("adaptive")
-    specialize, pipeline = options.get("specialize", True), options.get("pipeline", "fused")
-    band_options = {"device": options.get("device"), "seed": options.get("seed", 0),
-                    "jitter": options.get("jitter", True), "aovs": aovs, "adaptive": adaptive, "pipeline": pipeline,
-                    "local_size": options.get("local_size"), "memory_limit": options.get("memory_limit"),
-                    "tile_pixels": options.get("tile_pixels")}
     pending = []
     for scene, camera in frames:
         t0 = time.perf_counter()
-        base, cache_stats = _compiled_once(compiled, scene, options)
-        cs, _, _ = prepare(scene if isinstance(scene, Scene) else None, base, options.get("shadows", True), None,
-                           aovs, specialize, True, adaptive)
-        stats = scene_stats(cs, width, height, spp, specialize, pipeline, adaptive, cache_stats)
-        stats["scene_compile_s"] = time.perf_counter() - t0
-        pending.append((distributed.submit_bands(dask, cs, camera, width, height, spp, None, band_options), stats))
+        cs, cache_stats = _compiled_once(compiled, scene, options)
+        compile_s = time.perf_counter() - t0
+        s = setup(scene if isinstance(scene, Scene) else None, width, height, spp, compiled=cs, camera=camera,
+                  **per_frame)
+        s.stats.update(cache_stats, scene_compile_s=s.stats["scene_compile_s"] + compile_s)
+        pending.append((distributed.submit_bands(dask, s.cs, s.camera, width, height, spp, None, s.options),
+                        s.stats))
     for i, (bands, stats) in enumerate(pending):
         got = bands.collect()
         stats.update(got.stats)

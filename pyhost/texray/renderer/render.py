@@ -15,23 +15,23 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..compile import CompiledScene, cache as scene_cache
-from ..compile.textures import check_device_limits
-from ..device import layout, runtime
-from ..device.features import compile_options, generic_features
+from ..device import layout
+from ..device.features import generic_features
 from ..errors import SceneError
 from ..io.images import ScanlineWriter
 from ..scene import Camera, Scene
 from .. import validate as V
 from . import distributed
 from .adaptive import BLOCK_ROWS
-from .frame import PIPELINES, RAY_BYTES, render_rows
+from .frame import PIPELINES, RAY_BYTES, ROW_OPTIONS, device_program, render_rows
 from .image import Image, check_host_memory, host_image_bytes
 
-__all__ = ["RAY_BYTES", "prepare", "render", "render_to_file", "scene_stats"]
+__all__ = ["RAY_BYTES", "Setup", "prepare", "render", "render_to_file", "scene_stats", "setup"]
 
 
 def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=True, shadows=True,
@@ -97,6 +97,52 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     camera: a :class:`texray.Camera` to render from instead of the scene's (see
     :func:`texray.render_frames` for a camera path).
     """
+    dask_client = None if client is None else distributed.connect(client, "render: client")
+    s = setup(scene, width, height, spp, device=device, seed=seed, jitter=jitter, shadows=shadows, aovs=aovs,
+              specialize=specialize, local_size=local_size, memory_limit=memory_limit, tile_pixels=tile_pixels,
+              progress=progress, sink=sink, compiled=compiled, texture_filter=texture_filter, pipeline=pipeline,
+              adaptive=adaptive, cache=cache, rows=rows, camera=camera)
+    if dask_client is not None:
+        out = distributed.render_bands(dask_client, s.cs, s.camera, s.width, s.height, s.spp, s.rows, s.options,
+                                       progress, sink)
+        s.stats.update(out.stats, total_s=time.perf_counter() - s.t_start)
+        return Image(rgb=out.rgb, aov=out.aov, stats=s.stats)
+    t_compiled = time.perf_counter()
+    rt, prg, local = device_program(s.cs, device, local_size)
+    t_built = time.perf_counter()
+    out = render_rows(rt, prg, s.cs, s.camera, s.width, s.height, s.spp, s.rows, local=local, progress=progress,
+                      sink=sink, **{k: s.options[k] for k in ROW_OPTIONS})
+    t_end = time.perf_counter()
+    s.stats.update({
+        "device": rt.device.name.strip(), "program_build_s": t_built - t_compiled,
+        "render_s": t_end - t_built, "upload_s": out.upload_s, "total_s": t_end - s.t_start,
+        "stage_s": out.stage_s, "tile_rows": out.tile_rows, "tiles": out.tiles, "local_size": local,
+        "ray_buffer_bytes": out.ray_buffer_bytes, "samples": out.samples,
+    })
+    return Image(rgb=out.rgb, aov=out.aov, stats=s.stats)
+
+
+@dataclass
+class Setup:
+    """A render's checked settings and its compiled scene, before any device work
+    (:func:`setup`): what render() runs here and a Dask cluster runs in bands."""
+    cs: CompiledScene
+    camera: Camera
+    width: int
+    height: int
+    spp: int
+    rows: tuple | None
+    options: dict        # what every band needs: device, local_size and frame.ROW_OPTIONS
+    stats: dict          # scene_stats() and scene_compile_s
+    t_start: float
+
+
+def setup(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=True, shadows=True, aovs=(),
+          specialize=True, local_size=None, memory_limit=None, tile_pixels=None, progress=None, sink=None,
+          compiled=None, texture_filter=None, pipeline="fused", adaptive=None, cache=True, rows=None,
+          camera=None) -> Setup:
+    """Check :func:`render`'s settings (its arguments, less ``client``) and compile the
+    scene (or take it from the scene cache)."""
     width, height, spp, seed = V.render_settings(width, height, spp, seed)
     aovs = _check_options(aovs, pipeline, progress, sink, jitter=jitter, shadows=shadows, specialize=specialize,
                           cache=cache)
@@ -108,39 +154,16 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     band = height if rows is None else rows[1] - rows[0]
     if sink is None:
         check_host_memory(host_image_bytes(width, band, aovs), width, band)
-    dask_client = None if client is None else distributed.connect(client, "render: client")
     t_start = time.perf_counter()
     if camera is not None and not isinstance(camera, Camera):
         raise SceneError(f"render: camera: expected a texray.Camera, got {V.show(camera)}")
     cs, scene_camera, cache_stats = prepare(scene, compiled, shadows, texture_filter, aovs, specialize, cache,
                                             adaptive)
-    camera = scene_camera if camera is None else camera
-    t_compiled = time.perf_counter()
     stats = scene_stats(cs, width, height, spp, specialize, pipeline, adaptive, cache_stats)
-    if dask_client is not None:
-        options = dict(device=device, seed=seed, jitter=jitter, aovs=aovs, adaptive=adaptive, pipeline=pipeline,
-                       local_size=local_size, memory_limit=memory_limit, tile_pixels=tile_pixels)
-        out = distributed.render_bands(dask_client, cs, camera, width, height, spp, rows, options, progress, sink)
-        stats.update(out.stats, scene_compile_s=t_compiled - t_start, total_s=time.perf_counter() - t_start)
-        return Image(rgb=out.rgb, aov=out.aov, stats=stats)
-    rt = runtime(device)
-    if cs.texels is not None:
-        check_device_limits(cs.texels.nbytes, list(cs.texture_names), rt.device.max_mem_alloc_size)
-    prg = rt.program(compile_options(cs.features))
-    local = rt.local_size(local_size)
-    t_built = time.perf_counter()
-    out = render_rows(rt, prg, cs, camera, width, height, spp, rows, seed=seed, jitter=jitter, local=local,
-                      aovs=aovs, adaptive=adaptive, pipeline=pipeline, memory_limit=memory_limit,
-                      tile_pixels=tile_pixels, progress=progress, sink=sink)
-    t_end = time.perf_counter()
-    stats.update({
-        "device": rt.device.name.strip(),
-        "scene_compile_s": t_compiled - t_start, "program_build_s": t_built - t_compiled,
-        "render_s": t_end - t_built, "upload_s": out.upload_s, "total_s": t_end - t_start,
-        "stage_s": out.stage_s, "tile_rows": out.tile_rows, "tiles": out.tiles, "local_size": local,
-        "ray_buffer_bytes": out.ray_buffer_bytes, "samples": out.samples,
-    })
-    return Image(rgb=out.rgb, aov=out.aov, stats=stats)
+    stats["scene_compile_s"] = time.perf_counter() - t_start
+    options = dict(device=device, local_size=local_size, seed=seed, jitter=jitter, aovs=aovs, adaptive=adaptive,
+                   pipeline=pipeline, memory_limit=memory_limit, tile_pixels=tile_pixels)
+    return Setup(cs, scene_camera if camera is None else camera, width, height, spp, rows, options, stats, t_start)
 
 
 def scene_stats(cs, width, height, spp, specialize, pipeline, adaptive, cache_stats):
