@@ -37,17 +37,19 @@ def collapse(nodes: np.ndarray) -> tuple[np.ndarray, int]:
     ``nodes`` (root at 0). Traversal pushes at most three lanes per level."""
     if len(nodes) == 0:
         return np.zeros(0, BVH4_NODE), 0
-    first = nodes["first"].astype(np.int64)
-    leaf = nodes["count_kind"] != 0
+    # plain columns of the records (structured field gathers copy element by element)
+    words = np.ascontiguousarray(nodes).view(np.uint32).reshape(len(nodes), 8)
+    first = words[:, 3].astype(np.int64)
+    count_kind = words[:, 7]
+    leaf = count_kind != 0
     area = node_area(nodes)
     level = np.zeros(1, np.int64)                 # binary indices of this level's wide nodes
     if leaf[0]:
         lanes = np.full((1, WIDTH), -1, np.int64)
         lanes[0, 0] = 0                           # a single-leaf tree: one leaf lane
-        levels, starts = [lanes], [0]
+        levels = [lanes]
     else:
-        levels, starts = [], []
-        start = 0
+        levels = []
         while len(level):
             k = len(level)
             lanes = np.full((k, WIDTH), -1, np.int64)
@@ -65,28 +67,26 @@ def collapse(nodes: np.ndarray) -> tuple[np.ndarray, int]:
                 lanes[rows, count[rows]] = first[c] + 1
                 count[rows] += 1
             levels.append(lanes)
-            starts.append(start)
-            start += k
             inner = lanes[(lanes >= 0) & ~leaf[np.where(lanes >= 0, lanes, 0)]]
             level = inner                         # row-major: the next level's order
-    total = sum(len(x) for x in levels)
-    out = np.zeros(total, BVH4_NODE)
-    next_start = starts[1:] + [total]
-    for lanes, s, ns in zip(levels, starts, next_start):
-        k = len(lanes)
-        valid = lanes >= 0
-        b = np.where(valid, lanes, 0)
-        lo = np.where(valid[..., None], nodes["bmin"][b], np.float32(np.inf))
-        hi = np.where(valid[..., None], nodes["bmax"][b], np.float32(-np.inf))
-        rec = out[s:s + k]
-        for axis, name in enumerate("xyz"):
-            rec[f"lo_{name}"] = lo[..., axis]
-            rec[f"hi_{name}"] = hi[..., axis]
-        is_leaf = valid & leaf[b]
-        inner = valid & ~is_leaf
-        child = np.zeros((k, WIDTH), np.int64)
-        child[is_leaf] = first[b[is_leaf]]
-        child[inner] = ns + np.arange(int(inner.sum()))
-        rec["child"] = child.astype(np.uint32)
-        rec["count_kind"] = np.where(is_leaf, nodes["count_kind"][b], 0).astype(np.uint32)
-    return out, len(levels)
+    lanes = np.concatenate(levels)
+    total = len(lanes)
+    # Wide nodes are numbered breadth first and each level's wide nodes are the previous
+    # level's interior lanes in row-major order, so the interior lanes of all levels, in
+    # order, are wide nodes 1, 2, ...: the child index of each is its running count.
+    valid = lanes >= 0
+    b = np.where(valid, lanes, 0)
+    ck = count_kind[b]
+    is_leaf = valid & (ck != 0)
+    inner = valid & ~is_leaf
+    child = np.where(is_leaf, first[b], np.cumsum(inner.reshape(-1)).reshape(total, WIDTH))
+    # BVH4_NODE as 32 words: lo_x, hi_x, lo_y, hi_y, lo_z, hi_z, child, count_kind (4 each)
+    out = np.empty((total, 8, WIDTH), np.uint32)
+    out_f = out.view(np.float32)
+    rows = np.take(words.view(np.float32), b.reshape(-1), axis=0).reshape(total, WIDTH, 8)  # bmin 0..2, bmax 4..6
+    for axis in range(3):
+        out_f[:, 2 * axis] = np.where(valid, rows[..., axis], np.float32(np.inf))
+        out_f[:, 2 * axis + 1] = np.where(valid, rows[..., 4 + axis], np.float32(-np.inf))
+    out[:, 6] = np.where(valid, child, 0)
+    out[:, 7] = np.where(is_leaf, ck, 0)
+    return out.reshape(total, 8 * WIDTH).view(BVH4_NODE).reshape(total), len(levels)

@@ -50,7 +50,8 @@ def build(items, mats, any_normals, any_uvs, vertex_offset, builder) -> Blases:
             (order, nodes, depth), hit = _tree(rec.lo, rec.hi, builder)
             reused += hit
             arrays = dict(rec.arrays)
-            arrays["tri_verts"], arrays["tri_shade"] = arrays["tri_verts"][order], arrays["tri_shade"][order]
+            arrays["tri_verts"], arrays["tri_shade"] = (layout.take_records(arrays["tri_verts"], order),
+                                                        layout.take_records(arrays["tri_shade"], order))
             index[key] = len(meshes)
             meshes.append((mesh, arrays, nodes, depth, (rec.lo.min(0), rec.hi.max(0))))
         out.append((obj_id, inst, index[key]))

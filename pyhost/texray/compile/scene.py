@@ -225,9 +225,9 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
     for cls, names in _KINDS:
         if cls.PRIM in order:
             for n in names:
-                arrays[n] = arrays[n][order[cls.PRIM]]
+                arrays[n] = layout.take_records(arrays[n], order[cls.PRIM])
     if layout.PRIM_DISPLACED in order:
-        disp = disp[order[layout.PRIM_DISPLACED]]
+        disp = layout.take_records(disp, order[layout.PRIM_DISPLACED])
     instances = None
     if blases is not None:
         wide_nodes, instances = inst_blas.place(blases, arrays, wide_nodes, order[layout.PRIM_INSTANCE])

@@ -60,6 +60,17 @@ def decode_leaf(count_kind):
     return ck & np.uint32(LEAF_COUNT_MASK), ck >> np.uint32(LEAF_COUNT_BITS)
 
 
+def take_records(records: np.ndarray, index) -> np.ndarray:
+    """``records[index]`` for an array of one of these structs, copied as whole rows:
+    numpy's gather of a structured array copies field by field (up to 15x slower on a
+    million triangles). The same values bit for bit."""
+    size = records.dtype.itemsize
+    if len(records) == 0 or size % 4 or not records.flags.c_contiguous:
+        return records[index]
+    rows = records.view(np.uint32).reshape(len(records), size // 4)
+    return np.take(rows, index, axis=0).view(records.dtype).reshape(np.shape(index))
+
+
 # --- Triangles, in BVH leaf order, as two arrays -----------------------------
 # What traversal reads (48 bytes: three float4 loads, three per 64-byte line
 # less than with the shading data interleaved), world-space positions:

@@ -8,7 +8,6 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import validate as V
-from ..accel.scene_bvh import triangle_bounds
 from ..device import layout
 from ..errors import SceneError
 from ..linalg import apply_normals, apply_points
@@ -173,31 +172,40 @@ class Mesh:
         p, n = self.world()
         f = self.faces
         check_extent(p, f"{self.name}: ", "positions")
-        p32 = p.astype(np.float32)
-        corners = [p32[f[:, k]] for k in range(3)]
-        degenerate = zero_area(*corners)
+        # the corners gathered once as layout.TRI_VERTS rows (float3 + a zero pad each): plain
+        # float32 arrays, no structured copies (a million triangles in a fresh process pays
+        # for every new array in page faults)
+        p4 = np.zeros((len(p), 4), np.float32)
+        p4[:, :3] = p
+        tri = np.take(p4, f, axis=0)
+        degenerate = zero_area(tri[:, 0, :3], tri[:, 1, :3], tri[:, 2, :3])
         if degenerate.all():
             raise SceneError(f"{self.name}: faces: all {len(f)} triangles have zero area; nothing to render")
         warn_degenerate(self.name, degenerate)
         if degenerate.any():
             keep = np.flatnonzero(~degenerate)
-            fk, corners = f[keep], [c[keep] for c in corners]
+            fk, tri = f[keep], tri[keep]
         else:                                     # the common case: no copies
             keep, fk = np.arange(len(f)), f
-        tv = np.zeros(len(keep), layout.TRI_VERTS)
-        tv["p0"], tv["p1"], tv["p2"] = corners
-        t = np.zeros(len(keep), layout.TRI_SHADE)     # zeros: the padding fields too
+        k = len(keep)
+        tv = tri.reshape(k, 12).view(layout.TRI_VERTS).reshape(k)
         material = np.asarray(material)[self.face_materials()[keep]] if np.ndim(material) else material
-        t["material"], t["object"], t["prim"], t["v"] = material, object_id, keep, fk + vertex_offset
-        arrays, flags = {"tri_verts": tv, "tri_shade": t}, 0
+        flags = 0
+        arrays = {"tri_verts": tv}
         if with_normals:
             flags |= layout.TRI_HAS_NORMALS if n is not None else 0
             arrays["normals"] = n if n is not None else np.zeros_like(p)
         if with_uvs:
             flags |= layout.TRI_HAS_UVS if self.uvs is not None else 0
             arrays["uvs"] = self.uvs if self.uvs is not None else np.zeros((len(p), 2))
-        t["flags"] = flags
-        return DeviceRecords(arrays, *triangle_bounds(tv))
+        # layout.TRI_SHADE as 8 words: v[3], material, object, prim, flags, pad (zero)
+        words = np.zeros((k, 8), np.uint32)
+        words[:, 0:3] = fk + vertex_offset
+        words[:, 3], words[:, 4], words[:, 5], words[:, 6] = material, object_id, keep, flags
+        arrays["tri_shade"] = words.view(layout.TRI_SHADE).reshape(k)
+        lo = np.minimum(np.minimum(tri[:, 0, :3], tri[:, 1, :3]), tri[:, 2, :3])
+        hi = np.maximum(np.maximum(tri[:, 0, :3], tri[:, 1, :3]), tri[:, 2, :3])
+        return DeviceRecords(arrays, lo, hi)
 
 
 def _tame_normals(n):
@@ -221,11 +229,19 @@ def zero_area(a, b, c):
     """Boolean mask of the triangles (a, b, c) ((F, 3) corners) whose cross product
     (b - a) x (c - a) is exactly zero in float64 (float32 corners: the differences and
     products are exact, so "zero" is exact collinearity); the components written out
-    (np.cross's copies cost 0.4 s on a million triangles)."""
-    u = b.astype(np.float64) - a
-    v = c.astype(np.float64) - a
-    ux, uy, uz, vx, vy, vz = u[:, 0], u[:, 1], u[:, 2], v[:, 0], v[:, 1], v[:, 2]
-    return (uy * vz == uz * vy) & (uz * vx == ux * vz) & (ux * vy == uy * vx)
+    (np.cross's copies cost 0.4 s on a million triangles), in chunks of _CHUNK triangles
+    whose float64 temporaries stay in the cache and in reused memory."""
+    out = np.empty(len(a), bool)
+    for s in range(0, len(a), _CHUNK):
+        a_, b_, c_ = a[s:s + _CHUNK], b[s:s + _CHUNK], c[s:s + _CHUNK]
+        u = b_.astype(np.float64) - a_
+        v = c_.astype(np.float64) - a_
+        ux, uy, uz, vx, vy, vz = u[:, 0], u[:, 1], u[:, 2], v[:, 0], v[:, 1], v[:, 2]
+        out[s:s + _CHUNK] = (uy * vz == uz * vy) & (uz * vx == ux * vz) & (ux * vy == uy * vx)
+    return out
+
+
+_CHUNK = 1 << 15
 
 
 def warn_degenerate(name, mask):
