@@ -914,7 +914,7 @@ def _valid_texture(ch, L, role="colour", allow_uvt=True):
     return L.var("tex", expr)
 
 
-def _valid_material(ch, L, kind, parallelogram=False, mapped=False):
+def _valid_material(ch, L, kind, parallelogram=False, mapped=False, planar_convex=False):
     """A valid material for an object of ``kind`` (mesh, sphere, cylinder, quad); ``mapped``:
     the object has a projection mapping (a displaced mesh is tessellated from its own uvs)."""
     kw = {}
@@ -962,7 +962,8 @@ def _valid_material(ch, L, kind, parallelogram=False, mapped=False):
         kw["normal_map"] = call("tx.NormalMap", _valid_texture(ch, L, "normal"),
                                 convention=ch.choice(["opengl", "directx"]), space=ch.choice(["tangent", "object"]))
     if kind in ("sphere", "cylinder", "quad") + (() if mapped else ("mesh",)) and ch.boolean(0.25):
-        methods = ["tessellate"] + (["search", "maxmip"] if parallelogram or kind != "quad" else [])
+        methods = ["tessellate"] + (["search", "maxmip"] if parallelogram or kind != "quad" else
+                                    ["search"] if planar_convex else [])
         if kind != "quad":
             methods.remove("maxmip")
         if kind == "mesh":                         # texray.compile.tessellate_mesh
@@ -1065,7 +1066,8 @@ def gen_random_scene(ch, knobs=frozenset()) -> Case:
                          axis_x=(1, 0, 0), material=mat, transform=tf_world, **extra)
         elif kind == "quad":
             para = ch.boolean(0.5)
-            mat = _valid_material(ch, L, "quad", parallelogram=para)
+            trapezoid = not para and ch.boolean(0.5)      # planar and convex: the search displaces it
+            mat = _valid_material(ch, L, "quad", parallelogram=para, planar_convex=trapezoid)
             p0 = np.array(c)
             e0, e1 = np.array(vec3(ch, -1, 1)), np.array(vec3(ch, -1, 1))
             if np.linalg.norm(np.cross(e0, e1)) < 0.05:
@@ -1073,7 +1075,9 @@ def gen_random_scene(ch, knobs=frozenset()) -> Case:
             p1 = np.array([r3(x) for x in p0 + e0])
             p3 = np.array([r3(x) for x in p0 + e1])
             p2 = p1 + p3 - p0                     # an exact parallelogram (to float64 rounding)
-            if not para:
+            if trapezoid:                         # p2 moved within the plane, the quad kept convex
+                p2 = p2 + r3(ch.floats(-0.3, 0.3)) * (p1 - p0) + r3(ch.floats(-0.3, 0.3)) * (p3 - p0)
+            elif not para:
                 p2 = p2 + np.array(vec3(ch, -0.3, 0.3))
             p = [tuple(round(float(x), 9) for x in v) for v in (p0, p1, p2, p3)]
             uvs = {}

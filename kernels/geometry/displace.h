@@ -6,13 +6,17 @@
  * texel centres at (i + 0.5) / W; the texture's wrap mode).
  *
  * Every point q of space has local coordinates (u, v, h): for a parallelogram quad
- * the affine ones (q = P0 + u e0 + v e1 + h n), for a sphere the uv of its direction
- * and h = |q - c| - r, for a cylinder its (theta, z) uv and h = rho - r. Along a ray,
+ * the affine ones (q = P0 + u e0 + v e1 + h n), for another planar convex quad (a
+ * trapezoid, DISP_TRAPEZOID) h = (q - P0).n and (u, v) the inverse of its bilinear
+ * patch P0 + u e0 + v e1 + u v g at q's foot (disp_inverse_bilinear), for a sphere
+ * the uv of its direction and h = |q - c| - r, for a cylinder its (theta, z) uv and
+ * h = rho - r. Along a ray,
  * f(t) = h(t) - H(u(t), v(t)) is > 0 above the surface and < 0 below; outside the
  * (u, v) domain there is no surface (f = +inf, "above").
  *
  * Per ray: entry A and exit B of the bounding volume (slab [hmin, hmax] over a quad
- * in its local coordinates, which also clips to the (u, v) domain; shell [r + hmin,
+ * in its local coordinates, which also clips to the (u, v) domain; over a trapezoid
+ * the same h slab and the four half-spaces of its edges; shell [r + hmin,
  * r + hmax] for spheres and cylinders, cut at the inner sphere, which lies below
  * the surface everywhere), widened by delta, a rounding bound of h along the ray,
  * so that a surface lying on the volume's boundary (an all-zero or all-one map, or
@@ -27,7 +31,8 @@
  *     above its max or below its min, else descended; in a texel cell (the
  *     bilinear patch between four texel centres) f is a quadratic in t, solved
  *     exactly. Conservative: a cell is only skipped when it cannot hold a root, so
- *     no spike is missed whatever its width. Quads only (u, v, h affine in t).
+ *     no spike is missed whatever its width. Parallelogram quads only (u, v, h affine
+ *     in t); the host refuses it elsewhere.
  * Closest hit: the first sign change of f after A (seen from above or below).
  * Any hit (shadow rays): a crossing into the surface (f from + to -) always counts;
  * one out of it only when the ray entered the volume from outside (A > tmin): a ray
@@ -56,6 +61,7 @@ typedef struct {
     float3 q0, dir;         /* ray origin relative to Displaced.p, direction */
     float3 e0, e1, n;       /* quad: edges and unit normal; sphere/cylinder: axis_x, axis_y, axis_z */
     float3 r0, r1;          /* quad: dual basis (u = q.r0, v = q.r1) */
+    float3 g;               /* trapezoid: the patch's twist p0 - p1 + p2 - p3 (0 for the others) */
     uint shape, hoff;
     int w, h, mode;
     float radius, z0, z1, th0, span, hmin, hmax;
@@ -76,11 +82,16 @@ inline DispFrame disp_frame(__global const Displaced* d, float3 org, float3 dir)
     f.hmin = d->hmin; f.hmax = d->hmax;
     f.hstep = (f.hmax - f.hmin) * (1.0f / 65535.0f);
     float ext = TX_MAX(fabs(f.hmin), fabs(f.hmax));
+    f.g = (float3)(0.0f);
     if (f.shape == DISP_QUAD) {
         float3 c1 = cross3(f.e1, f.n), c2 = cross3(f.n, f.e0);
         float inv = 1.0f / dot3(f.e0, c1);
         f.r0 = c1 * inv; f.r1 = c2 * inv;
         ext += sqrt(dot3(f.e0, f.e0)) + sqrt(dot3(f.e1, f.e1));
+    } else if (f.shape == DISP_TRAPEZOID) {
+        f.r0 = f.r1 = (float3)(0.0f);
+        f.g = vload3(0, d->g);
+        ext += sqrt(dot3(f.e0, f.e0)) + sqrt(dot3(f.e1, f.e1)) + sqrt(dot3(f.g, f.g));
     } else {
         f.r0 = f.r1 = (float3)(0.0f);
         ext += f.radius + (f.shape == DISP_CYLINDER ? TX_MAX(fabs(f.z0), fabs(f.z1)) : 0.0f);
@@ -92,11 +103,39 @@ inline DispFrame disp_frame(__global const Displaced* d, float3 org, float3 dir)
     return f;
 }
 
+/* (u, v) of the planar bilinear patch u e0 + v e1 + u v g at the point q (relative to
+ * its corner p0; components along n drop out of every cross product's n part). With
+ * w = e0 + v g, q - v e1 = u w: crossing both sides with w gives
+ * k2 v^2 + k1 v + k0 = 0, k2 = [g, e1], k1 = [e0, e1] + [q, g], k0 = [q, e0] ([a, b] =
+ * (a x b).n), solved with core/quadratic.h's stable roots (a parallelogram's k2 = 0
+ * leaves the linear root); of the two, the one nearer [0, 1] (a convex quad has one
+ * root there for a point over it). Then u = (q - v e1).w / w.w. NaN where no real
+ * root exists (q far outside). */
+/* Distance of x from [0, 1]; +inf for NaN. */
+inline float disp_unit_distance(float x)
+{
+    return x >= 0.0f && x <= 1.0f ? 0.0f : (x < 0.0f ? -x : (x > 1.0f ? x - 1.0f : INFINITY));
+}
+
+inline float2 disp_inverse_bilinear(float3 q, float3 e0, float3 e1, float3 g, float3 n)
+{
+    float k2 = dot3(cross3(g, e1), n), k1 = dot3(cross3(e0, e1), n) + dot3(cross3(q, g), n);
+    float k0 = dot3(cross3(q, e0), n);
+    float hb = 0.5f * k1, disc = quadratic_disc(k2, hb, k0);
+    if (!(disc >= 0.0f)) return (float2)(NAN);
+    QuadRoots r = stable_roots(k2, hb, k0, sqrt(disc), 1);
+    float v = disp_unit_distance(r.t_far) < disp_unit_distance(r.t_near) ? r.t_far : r.t_near;
+    float3 w = e0 + v * g;
+    float u = dot3(q - v * e1, w) / dot3(w, w);
+    return (float2)(u, v);
+}
+
 /* (u, v, h) of the point q (relative to Displaced.p); u, v NaN or outside [0, 1]
  * where the primitive has no surface. */
 inline float3 disp_local(const DispFrame* f, float3 q)
 {
     if (f->shape == DISP_QUAD) return (float3)(dot3(q, f->r0), dot3(q, f->r1), dot3(q, f->n));
+    if (f->shape == DISP_TRAPEZOID) return (float3)(disp_inverse_bilinear(q, f->e0, f->e1, f->g, f->n), dot3(q, f->n));
     float x = dot3(q, f->e0), y = dot3(q, f->e1), z = dot3(q, f->n);
     float rho = tx_hypot(x, y);
     if (f->shape == DISP_SPHERE) return (float3)(sphere_uv(x, y, z, rho), tx_hypot(rho, z) - f->radius);
@@ -163,6 +202,15 @@ inline int disp_clip(const DispFrame* f, float tmin, float tmax, float* A, float
         if (!(slab_clip(lo.x, ld.x, 0.0f, 1.0f, 1.0f, &tn, &tf) && slab_clip(lo.y, ld.y, 0.0f, 1.0f, 1.0f, &tn, &tf)
               && slab_clip(lo.z, ld.z, hlo, hhi, 1.0f, &tn, &tf)))
             return 0;
+    } else if (f->shape == DISP_TRAPEZOID) {
+        /* the h slab, and the inner side of each edge's plane through n (the corners
+         * 0, e0, e0 + e1 + g, e1 counterclockwise about n: inward normal n x edge) */
+        if (!slab_clip(dot3(f->q0, f->n), dot3(f->dir, f->n), hlo, hhi, 1.0f, &tn, &tf)) return 0;
+        float3 c[4] = { (float3)(0.0f), f->e0, f->e0 + f->e1 + f->g, f->e1 };
+        for (int i = 0; i < 4; ++i) {
+            float3 m = cross3(f->n, c[(i + 1) & 3] - c[i]);
+            if (!slab_clip(dot3(f->q0 - c[i], m), dot3(f->dir, m), 0.0f, INFINITY, 1.0f, &tn, &tf)) return 0;
+        }
     } else if (f->shape == DISP_SPHERE) {
         float a, b;
         if (!disp_ball(f->q0, f->dir, f->radius + hhi, &a, &b)) return 0;
@@ -354,7 +402,7 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
         uint steps = clamp(d->steps, 1u, TX_DISP_MAX_STEPS);
         if (method & DISP_ADAPTIVE) {
             float3 qa = f.q0 + A * dir;
-            float3 nrm = f.shape == DISP_QUAD ? f.n
+            float3 nrm = f.shape == DISP_QUAD || f.shape == DISP_TRAPEZOID ? f.n
                        : (f.shape == DISP_SPHERE ? qa : qa - dot3(qa, f.n) * f.n);
             float cosv = fabs(dot3(nrm, dir)) * rsqrt(dot3(nrm, nrm) * dot3(dir, dir));
             steps = (uint)ceil((float)steps / TX_MAX(cosv, 0.125f));   /* NaN cos -> 8 N */
@@ -387,6 +435,13 @@ inline void displaced_geom(__global const Displaced* d, __global const ushort* h
          * with respect to them then come from the plain quad's parameterization. */
         g->ng = bump_normal(f.n, f.e0, f.e1, grad);
         quad_texcoords(d->uv, param, f.e0, f.e1, g);
+        return;
+    }
+    if (f.shape == DISP_TRAPEZOID) {                   /* the same with the patch's tangents at param */
+        float2 pc = clamp(param, 0.0f, 1.0f);
+        float3 pu = f.e0 + pc.y * f.g, pv = f.e1 + pc.x * f.g;
+        g->ng = bump_normal(f.n, pu, pv, grad);
+        quad_texcoords(d->uv, param, pu, pv, g);
         return;
     }
     /* The base shape's tangents at the displaced radius R, through the point's direction

@@ -8,6 +8,8 @@ to a few 1e-7; the maxmip traversal solves the cell's quadratic in float32, whos
 conditioning near grazing incidence costs up to ~1e-4 of t (T_EXACT); the search
 brackets the root to (B - A) / (N 2^M) and then takes a secant step (T_SEARCH).
 """
+from pathlib import Path
+
 import numpy as np
 import pyopencl as cl
 import pytest
@@ -130,6 +132,148 @@ def test_analytic_sines_match_float64_root_finder(device, method):
         good = rel <= tol
         assert good.mean() >= (0.995 if method == "maxmip" else 0.97), (method, ang, rel.max())
         assert np.abs(uv[both][good] - uvr[both][good]).max() <= 20 * tol, (method, ang)
+
+
+CHECKER = Path(__file__).resolve().parents[2] / "scenes" / "textures" / "checker.png"
+TRAPEZOID = ((-1.2, 0, 1), (1.2, 0, 1), (0.6, 0, -1), (-0.5, 0, -1.1))     # planar, convex, no two sides parallel
+
+
+def inverse_bilinear(q, p):
+    """float64 (u, v) of the points q (..., 3) on the planar quad p (4, 3) by its bilinear
+    patch p0 + u e0 + v e1 + u v g, solved independently of the kernel: Newton on the two
+    in-plane equations from the parallelogram's affine guess (NaN where it does not converge)."""
+    e0, e1, g = p[1] - p[0], p[3] - p[0], p[0] - p[1] + p[2] - p[3]
+    n = np.cross(e0, e1)
+    n /= np.linalg.norm(n)
+    a1 = e0 / np.linalg.norm(e0)
+    a2 = np.cross(n, a1)
+    basis = np.stack([a1, a2])                     # in-plane coordinates
+    r = (q - p[0]) @ basis.T
+    E0, E1, G = e0 @ basis.T, e1 @ basis.T, g @ basis.T
+    uv = r @ np.linalg.inv(np.stack([E0, E1]))      # the affine guess
+    for _ in range(30):
+        u, v = uv[..., :1], uv[..., 1:]
+        res = u * E0 + v * E1 + u * v * G - r
+        ju, jv = E0 + v * G, E1 + u * G
+        det = ju[..., 0] * jv[..., 1] - ju[..., 1] * jv[..., 0]
+        du = (res[..., 0] * jv[..., 1] - res[..., 1] * jv[..., 0]) / det
+        dv = (ju[..., 0] * res[..., 1] - ju[..., 1] * res[..., 0]) / det
+        uv = uv - np.stack([du, dv], -1)
+    u, v = uv[..., 0], uv[..., 1]
+    res = u[..., None] * E0 + v[..., None] * E1 + (u * v)[..., None] * G - r
+    return np.where((np.abs(res) < 1e-9).all(-1)[..., None], uv, np.nan)
+
+
+def trapezoid_reference(d, corners, org, dirs, samples=4000):
+    """float64 (t, uv) of the first crossing of each ray with the displaced planar quad
+    ``corners`` (f = h - H(u, v), +inf outside the (u, v) domain), as quad_reference."""
+    p = np.asarray(corners, np.float64)
+    n = np.cross(p[1] - p[0], p[3] - p[0])
+    n /= np.linalg.norm(n)
+    h = d.heights()
+    org = np.broadcast_to(np.asarray(org, np.float64), np.shape(dirs))
+    dirs = np.asarray(dirs, np.float64)
+    ho, hd = (org - p[0]) @ n, dirs @ n
+    t0, t1 = (h.min() - 1e-9 - ho) / hd, (h.max() + 1e-9 - ho) / hd
+    tn, tf = np.maximum(np.minimum(t0, t1), 0), np.maximum(t0, t1)
+
+    def f(t):
+        q = org[:, None] + t[..., None] * dirs[:, None]
+        uv = inverse_bilinear(q, p)
+        u, v = uv[..., 0], uv[..., 1]
+        inside = (u >= -1e-12) & (u <= 1 + 1e-12) & (v >= -1e-12) & (v <= 1 + 1e-12)
+        hq = (q - p[0]) @ n
+        with np.errstate(invalid="ignore"):
+            return np.where(inside, hq - HF.height(h, np.clip(np.nan_to_num(u), 0, 1),
+                                                    np.clip(np.nan_to_num(v), 0, 1), d.wrap), np.inf), uv
+
+    t = tn[:, None] + np.linspace(0, 1, samples)[None] * (tf - tn)[:, None]
+    fv, _ = f(t)
+    below = fv < 0
+    first = np.argmax(np.isfinite(fv), axis=1)          # the first sample over the quad sets the side
+    rows = np.arange(len(t))
+    start = below[rows, first]
+    change = (below != start[:, None]) & np.isfinite(fv) & (np.arange(samples)[None] > first[:, None])
+    ok = change.any(axis=1)
+    i = np.argmax(change, axis=1)
+    lo_t, hi_t = t[rows, np.maximum(i - 1, 0)], t[rows, i]
+    for _ in range(50):
+        mid = 0.5 * (lo_t + hi_t)
+        fm, _ = f(mid[:, None])
+        same = (fm[:, 0] < 0) == start
+        lo_t, hi_t = np.where(same, mid, lo_t), np.where(same, hi_t, mid)
+    th = 0.5 * (lo_t + hi_t)
+    _, uv = f(th[:, None])
+    return np.where(ok, th, np.nan), uv[:, 0]
+
+
+@pytest.mark.parametrize("angle", [20, 50, 70, 86])
+def test_trapezoid_search_matches_float64_root_finder(device, angle):
+    """A planar convex quad that is no parallelogram: the search inverts its bilinear patch
+    in the plane (kernels/geometry/displace.h disp_inverse_bilinear); hits, distances and
+    the patch's (u, v) against a float64 root finder with an independent (Newton) inverse."""
+    d = tx.Displacement(_sines(), scale=0.2, method="search", steps=128, refine=8)
+    s = tx.Scene(camera=tx.Camera(eye=(0, 2, 3), look_at=(0, 0, 0)))
+    s.add(tx.Quad(*TRAPEZOID, material=tx.Material(displacement=d)))
+    tracer = Tracer(s, device)
+    rng = np.random.default_rng(angle)
+    a = np.radians(angle)
+    dirs = np.array([np.sin(a) * np.cos(0.3), -np.cos(a), np.sin(a) * np.sin(0.3)])
+    # targets at mid-height over the patch's inner part: P(u, v) for u, v in [0.1, 0.9]
+    u, v = rng.uniform(0.1, 0.9, (2, 400))
+    p = np.asarray(TRAPEZOID, np.float64)
+    target = ((1 - u) * (1 - v))[:, None] * p[0] + (u * (1 - v))[:, None] * p[1] + (u * v)[:, None] * p[2] \
+        + ((1 - u) * v)[:, None] * p[3] + np.array([0, 0.1, 0])
+    orgs = target - (0.4 / np.cos(a)) * dirs
+    dirs = np.broadcast_to(dirs, orgs.shape).copy()
+    t, uv = _trace_each(tracer, orgs, dirs)
+    tr, uvr = trapezoid_reference(d, p, orgs, dirs)
+    agree = np.isnan(t) == np.isnan(tr)
+    assert agree.mean() >= 0.98, (angle, np.flatnonzero(~agree)[:5])
+    both = ~np.isnan(t) & ~np.isnan(tr)
+    assert both.mean() >= 0.9
+    rel = np.abs(t[both] - tr[both]) / tr[both]
+    good = rel <= T_SEARCH
+    assert good.mean() >= 0.97, (angle, rel.max())
+    assert np.abs(uv[both][good] - uvr[both][good]).max() <= 20 * T_SEARCH, angle
+
+
+def test_trapezoid_search_renders_as_its_tessellation(device):
+    """Depth and colour of a displaced trapezoid, searched on the device, against its own
+    tessellation (4 vertices per texel): the same surface, the same shading normals and
+    texture coordinates (a checker across the patch) within the tessellation's error."""
+    out = {}
+    for method in ("search", "tessellate"):
+        d = tx.Displacement(_sines(24, a=0.5, k=2.0), scale=0.2, method=method, steps=64, refine=8, resolution=4)
+        s = tx.Scene(camera=tx.Camera(eye=(0, 1.2, 2.6), look_at=(0, 0, 0), fov_y=45),
+                     lights=[tx.PointLight((2, 3, 2), (12, 12, 12))], ambient=(0.05, 0.05, 0.05))
+        s.add(tx.Quad(*TRAPEZOID, uvs=((0, 0), (2, 0), (2, 1), (0, 1)),
+                      material=tx.Material(diffuse=tx.Texture.load(CHECKER), displacement=d)))
+        img = tx.render(s, 96, 72, 1, device=device, aovs=("depth",), jitter=False)
+        assert not np.isnan(img.rgb).any()
+        out[method] = img
+    a, b = out["search"].aov["depth"][..., 0], out["tessellate"].aov["depth"][..., 0]
+    assert (np.isnan(a) == np.isnan(b)).mean() > 0.995
+    both = ~np.isnan(a) & ~np.isnan(b)
+    assert both.mean() > 0.2                 # the quad covers about a quarter of the image
+    assert np.median(np.abs(a[both] - b[both]) / b[both]) < 1e-3
+    diff = np.abs(out["search"].rgb - out["tessellate"].rgb)[both]
+    assert np.sqrt(np.mean(diff ** 2)) < 0.02 and np.percentile(diff, 95) < 0.02
+
+
+def test_quads_the_search_cannot_displace_are_refused():
+    tex = _sines(4)
+    search, maxmip = (tx.Material(displacement=tx.Displacement(tex, method=m)) for m in ("search", "maxmip"))
+    with pytest.raises(tx.SceneError, match=r"kite: material.displacement.method: 'maxmip' displaces parallelogram "
+                                            r"quads only .*use method = \"search\""):
+        tx.Quad(*TRAPEZOID, material=maxmip, name="kite")
+    with pytest.raises(tx.SceneError, match=r"bent: material.displacement.method: 'search' displaces planar quads "
+                                            r"only; p2 lies 0.5 off"):
+        tx.Quad((0, 0, 0), (1, 0, 0), (1, 0.5, 1), (0, 0, 1), material=search, name="bent")
+    with pytest.raises(tx.SceneError, match=r"dart: material.displacement.method: 'search' displaces convex quads"):
+        tx.Quad((0, 0, 0), (1, 0, 0), (0.3, 0, 0.3), (0, 0, 1), material=search, name="dart")
+    tx.Quad(*TRAPEZOID, material=search, name="trapezoid")                   # accepted
+    tx.Quad(*TRAPEZOID, material=tx.Material(displacement=tx.Displacement(tex, method="tessellate")))
 
 
 def test_zero_height_renders_the_undisplaced_quad(device):
@@ -306,8 +450,8 @@ def test_bad_input_names_the_field():
             tx.Displacement(tex, **kw)
     # Shape rules are checked when the object is made, not at render time.
     d = tx.Displacement(tex, scale=0.1)
-    with pytest.raises(tx.SceneError, match="kite: material.displacement.method: .*parallelogram"):
-        tx.Quad((0, 0, 0), (1, 0, 0), (1.5, 0, 1), (0, 0, 1), material=tx.Material(displacement=d), name="kite")
+    with pytest.raises(tx.SceneError, match="kite: material.displacement.method: .*planar quads only"):
+        tx.Quad((0, 0, 0), (1, 0, 0), (1.5, 0.3, 1), (0, 0, 1), material=tx.Material(displacement=d), name="kite")
     with pytest.raises(tx.SceneError, match="ball: material.displacement.method: .*maxmip"):
         tx.Sphere(material=tx.Material(displacement=tx.Displacement(tex, method="maxmip")), name="ball")
     with pytest.raises(tx.SceneError, match="ball: material.displacement.offset: .*below the centre"):

@@ -121,8 +121,10 @@ QUAD_SHADE = np.dtype([
     ("material", "<u4"), ("object", "<u4"), ("prim", "<u4"), ("flags", "<u4"),
 ])
 
-# --- Displaced primitive: 160 bytes -------------------------------------------
+# --- Displaced primitive: 176 bytes -------------------------------------------
 # shape DISP_QUAD: a planar parallelogram P(u, v) = p + u e0 + v e1, n = unit e0 x e1.
+# shape DISP_TRAPEZOID: any other planar convex quad, the bilinear patch
+# P(u, v) = p + u e0 + v e1 + u v g (g = p0 - p1 + p2 - p3, in the plane), n = unit e0 x e1.
 # shape DISP_SPHERE / DISP_CYLINDER: centre / origin p, frame e0 = axis_x,
 # e1 = axis_z x axis_x, n = axis_z; cylinder z and theta (radians) ranges.
 # The surface is P(u, v) + H(u, v) n(u, v), H in [hmin, hmax] (world units), read
@@ -141,8 +143,9 @@ DISPLACED = np.dtype([
     ("object", "<u4"), ("prim", "<u4"), ("shape", "<u4"), ("method", "<u4"),
     ("hoff", "<u4"), ("moff", "<u4"), ("hw", "<u4"), ("hh", "<u4"),
     ("levels", "<u4"), ("wrap", "<u4"), ("steps", "<u4"), ("refine", "<u4"),
+    ("g", "<f4", (3,)), ("pad0", "<u4"),
 ])
-DISP_QUAD, DISP_SPHERE, DISP_CYLINDER = 0, 1, 2
+DISP_QUAD, DISP_SPHERE, DISP_CYLINDER, DISP_TRAPEZOID = 0, 1, 2, 3
 DISP_SEARCH, DISP_MAXMIP, DISP_ADAPTIVE = 0, 1, 4     # DISPLACED.method: a method | the adaptive bit
 
 # --- Instance of a mesh: 160 bytes --------------------------------------------
@@ -271,6 +274,7 @@ CONSTANTS = {
     "PRIM_QUAD": PRIM_QUAD, "PRIM_DISPLACED": PRIM_DISPLACED,
     "PRIM_INSTANCE": PRIM_INSTANCE,
     "DISP_QUAD": DISP_QUAD, "DISP_SPHERE": DISP_SPHERE, "DISP_CYLINDER": DISP_CYLINDER,
+    "DISP_TRAPEZOID": DISP_TRAPEZOID,
     "DISP_SEARCH": DISP_SEARCH, "DISP_MAXMIP": DISP_MAXMIP, "DISP_ADAPTIVE": DISP_ADAPTIVE, "HIT_KIND_SHIFT": HIT_KIND_SHIFT, "HIT_INDEX_MASK": HIT_INDEX_MASK,
     "AOV_FLOATS": AOV_FLOATS, **{f"AOV_{k.upper()}": v[0] for k, v in AOVS.items()},
     "TRI_HAS_NORMALS": TRI_HAS_NORMALS,

@@ -14,7 +14,9 @@ Methods (``Displacement.method``):
 * ``"search"``: on the device, the lecture's search between the entry A and exit B of
   the displaced surface's bounding volume: ``steps`` linear steps to the first
   sample on the other side of the surface, then ``refine`` bisection steps
-  (``kernels/geometry/displace.h``).
+  (``kernels/geometry/displace.h``). On spheres, cylinders and planar convex quads:
+  a parallelogram, or any other (a trapezoid), whose bilinear (u, v) the kernel
+  inverts in its plane.
 * ``"maxmip"``: the exact hierarchical traversal of a min-max MIP pyramid of the
   height field (Tevs, Ihrke, Seidel, "Maximum Mipmaps for Fast, Accurate, and
   Scalable Dynamic Height Field Rendering", I3D 2008), made two-sided so that
@@ -51,8 +53,8 @@ class Displacement:
     outward normal (world units: a texel value of 1 raises it by ``scale``).
 
     method: "search" (linear + binary search, ``steps`` N >= 1 and ``refine`` M >= 0
-    bisections), "maxmip" (exact hierarchical traversal; quads that are planar
-    parallelograms) or "tessellate" (a triangle mesh, ``resolution`` vertices per
+    bisections; spheres, cylinders, planar convex quads), "maxmip" (exact hierarchical
+    traversal; quads that are planar parallelograms) or "tessellate" (a triangle mesh, ``resolution`` vertices per
     texel and axis). adaptive: N grows with the grazing angle, N / max(|cos|, 1/8)
     (the path through the volume grows as 1/|cos|, so the height step per sample
     stays put up to 8x N).

@@ -65,14 +65,7 @@ class Quad:
         check_mapping(self.mapping, where)
         d = self.material.displacement
         if d is not None and d.method != "tessellate":
-            e0, e1 = p[1] - p[0], p[3] - p[0]
-            size = max(np.abs(p).max(), np.linalg.norm(e0), np.linalg.norm(e1))
-            # A parallelogram to float32 precision (2^-20 of its size): (u, v, h) are then
-            # affine along a ray, which the search and the maxmip traversal rely on.
-            if np.linalg.norm(p[0] + p[2] - p[1] - p[3]) > 2.0 ** -20 * size:
-                raise SceneError(f"{where}material.displacement.method: {d.method!r} displaces planar "
-                                 f"parallelogram quads only (p0 + p2 = p1 + p3); this quad's corners are "
-                                 f"{V.show(p)}: use method = \"tessellate\"")
+            _check_displaceable(p, d.method, where)
         return QuadWorld(p, uv)
 
     # --- the parameterization ------------------------------------------------------
@@ -115,5 +108,46 @@ class Quad:
         n = np.cross(e0, e1)
         n /= np.linalg.norm(n)
         rec["shape"], rec["p"], rec["e0"], rec["e1"], rec["n"], rec["uv"] = layout.DISP_QUAD, p[0], e0, e1, n, uv.ravel()
+        if not _parallelogram(p):
+            rec["shape"], rec["g"] = layout.DISP_TRAPEZOID, p[0] - p[1] + p[2] - p[3]
         c = np.concatenate([p + hmin * n, p + hmax * n])
         return c.min(axis=0), c.max(axis=0)
+
+
+def _tolerance(p):
+    """2^-20 of the quad's size: float32 precision, what "planar" and "parallelogram" mean."""
+    return 2.0 ** -20 * max(np.abs(p).max(), np.linalg.norm(p[1] - p[0]), np.linalg.norm(p[3] - p[0]))
+
+
+def _parallelogram(p):
+    """p0 + p2 = p1 + p3 to float32 precision: (u, v, h) are affine along a ray."""
+    return np.linalg.norm(p[0] + p[2] - p[1] - p[3]) <= _tolerance(p)
+
+
+def _check_displaceable(p, method, where):
+    """SceneError unless the per-pixel methods can displace the quad with world corners p:
+    "search" takes a planar convex quad (a parallelogram, or a trapezoid or any other
+    convex quad: kernels/geometry/displace.h inverts its bilinear patch in the plane),
+    "maxmip" a parallelogram (its traversal needs (u, v, h) affine along the ray)."""
+    field = f"{where}material.displacement.method"
+    e0, e1 = p[1] - p[0], p[3] - p[0]
+    n = np.cross(e0, e1)
+    if not np.linalg.norm(n) > 0:
+        raise SceneError(f"{field}: {method!r} needs p1 - p0 and p3 - p0 to span the quad's plane; they are "
+                         f"parallel for the corners {V.show(p)}: use method = \"tessellate\"")
+    n = n / np.linalg.norm(n)
+    off = float(np.dot(p[2] - p[0], n))
+    if abs(off) > _tolerance(p):
+        raise SceneError(f"{field}: {method!r} displaces planar quads only; p2 lies {abs(off):.3g} off the plane of "
+                         f"p0, p1, p3 (corners {V.show(p)}): use method = \"tessellate\"")
+    if _parallelogram(p):
+        return
+    if method == "maxmip":
+        raise SceneError(f"{field}: 'maxmip' displaces parallelogram quads only (p0 + p2 = p1 + p3); this quad's "
+                         f"corners are {V.show(p)}: use method = \"search\" (any planar convex quad) or "
+                         f"\"tessellate\"")
+    turns = [np.dot(np.cross(p[(i + 1) % 4] - p[i], p[(i + 2) % 4] - p[(i + 1) % 4]), n) for i in range(4)]
+    if not min(turns) > 0:
+        raise SceneError(f"{field}: {method!r} displaces convex quads only (corners in order around the quad, "
+                         f"no corner of 180 degrees or more); this quad's corners are {V.show(p)}: use "
+                         f"method = \"tessellate\"")
