@@ -60,8 +60,9 @@
 typedef struct {
     float3 q0, dir;         /* ray origin relative to Displaced.p, direction */
     float3 e0, e1, n;       /* quad: edges and unit normal; sphere/cylinder: axis_x, axis_y, axis_z */
-    float3 r0, r1;          /* quad: dual basis (u = q.r0, v = q.r1) */
+    float3 r0, r1;          /* quad: dual basis (u = q.r0, v = q.r1); trapezoid: e0 x n, g x n */
     float3 g;               /* trapezoid: the patch's twist p0 - p1 + p2 - p3 (0 for the others) */
+    float k2, k1;           /* trapezoid: [g, e1], [e0, e1] (disp_inverse_bilinear) */
     uint shape, hoff;
     int w, h, mode;
     float radius, z0, z1, th0, span, hmin, hmax;
@@ -83,14 +84,16 @@ inline DispFrame disp_frame(__global const Displaced* d, float3 org, float3 dir)
     f.hstep = (f.hmax - f.hmin) * (1.0f / 65535.0f);
     float ext = TX_MAX(fabs(f.hmin), fabs(f.hmax));
     f.g = (float3)(0.0f);
+    f.k2 = f.k1 = 0.0f;
     if (f.shape == DISP_QUAD) {
         float3 c1 = cross3(f.e1, f.n), c2 = cross3(f.n, f.e0);
         float inv = 1.0f / dot3(f.e0, c1);
         f.r0 = c1 * inv; f.r1 = c2 * inv;
         ext += sqrt(dot3(f.e0, f.e0)) + sqrt(dot3(f.e1, f.e1));
     } else if (f.shape == DISP_TRAPEZOID) {
-        f.r0 = f.r1 = (float3)(0.0f);
         f.g = vload3(0, d->g);
+        f.r0 = cross3(f.e0, f.n); f.r1 = cross3(f.g, f.n);
+        f.k2 = dot3(cross3(f.g, f.e1), f.n); f.k1 = dot3(cross3(f.e0, f.e1), f.n);
         ext += sqrt(dot3(f.e0, f.e0)) + sqrt(dot3(f.e1, f.e1)) + sqrt(dot3(f.g, f.g));
     } else {
         f.r0 = f.r1 = (float3)(0.0f);
@@ -103,30 +106,30 @@ inline DispFrame disp_frame(__global const Displaced* d, float3 org, float3 dir)
     return f;
 }
 
-/* (u, v) of the planar bilinear patch u e0 + v e1 + u v g at the point q (relative to
- * its corner p0; components along n drop out of every cross product's n part). With
- * w = e0 + v g, q - v e1 = u w: crossing both sides with w gives
- * k2 v^2 + k1 v + k0 = 0, k2 = [g, e1], k1 = [e0, e1] + [q, g], k0 = [q, e0] ([a, b] =
- * (a x b).n), solved with core/quadratic.h's stable roots (a parallelogram's k2 = 0
- * leaves the linear root); of the two, the one nearer [0, 1] (a convex quad has one
- * root there for a point over it). Then u = (q - v e1).w / w.w. NaN where no real
- * root exists (q far outside). */
 /* Distance of x from [0, 1]; +inf for NaN. */
 inline float disp_unit_distance(float x)
 {
     return x >= 0.0f && x <= 1.0f ? 0.0f : (x < 0.0f ? -x : (x > 1.0f ? x - 1.0f : INFINITY));
 }
 
-inline float2 disp_inverse_bilinear(float3 q, float3 e0, float3 e1, float3 g, float3 n)
+/* (u, v) of the trapezoid's planar bilinear patch u e0 + v e1 + u v g at the point q
+ * (relative to its corner p0; components along n drop out of every cross product's n
+ * part). With w = e0 + v g, q - v e1 = u w: crossing both sides with w gives
+ * k2 v^2 + k1' v + k0 = 0, k2 = [g, e1], k1' = [e0, e1] + [q, g], k0 = [q, e0] ([a, b] =
+ * (a x b).n = a.(b x n): disp_frame keeps the constants k2 and k1 = [e0, e1] and the
+ * vectors r0 = e0 x n, r1 = g x n, so a sample costs two dot products), solved with
+ * core/quadratic.h's stable roots (k2 = 0 leaves the linear root); of the two, the one
+ * nearer [0, 1] (a convex quad has one root there for a point over it). Then
+ * u = (q - v e1).w / w.w. NaN where no real root exists (q far outside). */
+inline float2 disp_inverse_bilinear(const DispFrame* f, float3 q)
 {
-    float k2 = dot3(cross3(g, e1), n), k1 = dot3(cross3(e0, e1), n) + dot3(cross3(q, g), n);
-    float k0 = dot3(cross3(q, e0), n);
-    float hb = 0.5f * k1, disc = quadratic_disc(k2, hb, k0);
+    float k1 = f->k1 + dot3(q, f->r1), k0 = dot3(q, f->r0);
+    float hb = 0.5f * k1, disc = quadratic_disc(f->k2, hb, k0);
     if (!(disc >= 0.0f)) return (float2)(NAN);
-    QuadRoots r = stable_roots(k2, hb, k0, sqrt(disc), 1);
+    QuadRoots r = stable_roots(f->k2, hb, k0, sqrt(disc), 1);
     float v = disp_unit_distance(r.t_far) < disp_unit_distance(r.t_near) ? r.t_far : r.t_near;
-    float3 w = e0 + v * g;
-    float u = dot3(q - v * e1, w) / dot3(w, w);
+    float3 w = f->e0 + v * f->g;
+    float u = dot3(q - v * f->e1, w) / dot3(w, w);
     return (float2)(u, v);
 }
 
@@ -135,7 +138,7 @@ inline float2 disp_inverse_bilinear(float3 q, float3 e0, float3 e1, float3 g, fl
 inline float3 disp_local(const DispFrame* f, float3 q)
 {
     if (f->shape == DISP_QUAD) return (float3)(dot3(q, f->r0), dot3(q, f->r1), dot3(q, f->n));
-    if (f->shape == DISP_TRAPEZOID) return (float3)(disp_inverse_bilinear(q, f->e0, f->e1, f->g, f->n), dot3(q, f->n));
+    if (f->shape == DISP_TRAPEZOID) return (float3)(disp_inverse_bilinear(f, q), dot3(q, f->n));
     float x = dot3(q, f->e0), y = dot3(q, f->e1), z = dot3(q, f->n);
     float rho = tx_hypot(x, y);
     if (f->shape == DISP_SPHERE) return (float3)(sphere_uv(x, y, z, rho), tx_hypot(rho, z) - f->radius);

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import bvh, cells
+from ..device import layout
 from ..device.layout import BVH_NODE
 
 BUILDERS = ("auto", "numpy", "cells")
@@ -29,8 +30,9 @@ class SceneBVH:
 
 def triangle_bounds(tri_verts):
     """(lo, hi) float32 (n, 3) boxes of layout.TRI_VERTS triangles (exact: min/max of float32)."""
-    p0, p1, p2 = tri_verts["p0"], tri_verts["p1"], tri_verts["p2"]
-    return np.minimum(np.minimum(p0, p1), p2), np.maximum(np.maximum(p0, p1), p2)
+    c = layout.tri_corners(tri_verts)[:, :, :3]      # plain columns: no structured field copies
+    return (np.minimum(np.minimum(c[:, 0], c[:, 1]), c[:, 2]),
+            np.maximum(np.maximum(c[:, 0], c[:, 1]), c[:, 2]))
 
 
 def build_kind(lo, hi, kind, builder="auto") -> bvh.BVH:

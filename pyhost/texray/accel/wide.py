@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .bvh import node_area
-from ..device.layout import BVH4_NODE
+from ..device.layout import BVH4_NODE, BVH_NODE, word
 
 WIDTH = 4
 
@@ -38,9 +38,9 @@ def collapse(nodes: np.ndarray) -> tuple[np.ndarray, int]:
     if len(nodes) == 0:
         return np.zeros(0, BVH4_NODE), 0
     # plain columns of the records (structured field gathers copy element by element)
-    words = np.ascontiguousarray(nodes).view(np.uint32).reshape(len(nodes), 8)
-    first = words[:, 3].astype(np.int64)
-    count_kind = words[:, 7]
+    words = np.ascontiguousarray(nodes).view(np.uint32).reshape(len(nodes), BVH_NODE.itemsize // 4)
+    first = words[:, word(BVH_NODE, "first")].astype(np.int64)
+    count_kind = words[:, word(BVH_NODE, "count_kind")]
     leaf = count_kind != 0
     area = node_area(nodes)
     level = np.zeros(1, np.int64)                 # binary indices of this level's wide nodes
@@ -80,13 +80,14 @@ def collapse(nodes: np.ndarray) -> tuple[np.ndarray, int]:
     is_leaf = valid & (ck != 0)
     inner = valid & ~is_leaf
     child = np.where(is_leaf, first[b], np.cumsum(inner.reshape(-1)).reshape(total, WIDTH))
-    # BVH4_NODE as 32 words: lo_x, hi_x, lo_y, hi_y, lo_z, hi_z, child, count_kind (4 each)
-    out = np.empty((total, 8, WIDTH), np.uint32)
+    # BVH4_NODE as runs of WIDTH words (lo_x, hi_x, ..., child, count_kind), filled as plain arrays
+    out = np.empty((total, BVH4_NODE.itemsize // (4 * WIDTH), WIDTH), np.uint32)
     out_f = out.view(np.float32)
-    rows = np.take(words.view(np.float32), b.reshape(-1), axis=0).reshape(total, WIDTH, 8)  # bmin 0..2, bmax 4..6
-    for axis in range(3):
-        out_f[:, 2 * axis] = np.where(valid, rows[..., axis], np.float32(np.inf))
-        out_f[:, 2 * axis + 1] = np.where(valid, rows[..., 4 + axis], np.float32(-np.inf))
-    out[:, 6] = np.where(valid, child, 0)
-    out[:, 7] = np.where(is_leaf, ck, 0)
-    return out.reshape(total, 8 * WIDTH).view(BVH4_NODE).reshape(total), len(levels)
+    rows = np.take(words.view(np.float32), b.reshape(-1), axis=0).reshape(total, WIDTH, -1)
+    lo0, hi0 = word(BVH_NODE, "bmin"), word(BVH_NODE, "bmax")
+    for axis, name in enumerate("xyz"):
+        out_f[:, word(BVH4_NODE, f"lo_{name}") // WIDTH] = np.where(valid, rows[..., lo0 + axis], np.float32(np.inf))
+        out_f[:, word(BVH4_NODE, f"hi_{name}") // WIDTH] = np.where(valid, rows[..., hi0 + axis], np.float32(-np.inf))
+    out[:, word(BVH4_NODE, "child") // WIDTH] = np.where(valid, child, 0)
+    out[:, word(BVH4_NODE, "count_kind") // WIDTH] = np.where(is_leaf, ck, 0)
+    return out.reshape(total, -1).view(BVH4_NODE).reshape(total), len(levels)

@@ -86,6 +86,21 @@ TRI_SHADE = np.dtype([
     ("v", "<u4", (3,)), ("material", "<u4"),
     ("object", "<u4"), ("prim", "<u4"), ("flags", "<u4"), ("pad0", "<u4"),
 ])
+def word(dtype: np.dtype, field: str) -> int:
+    """The 4-byte word at which ``field`` of a struct starts: where host code fills or reads
+    records as plain (n, itemsize / 4) arrays (fast) instead of by field, it takes the
+    columns from here, so a reordered dtype moves them."""
+    off = dtype.fields[field][1]
+    assert off % 4 == 0
+    return off // 4
+
+
+def tri_corners(tri_verts: np.ndarray) -> np.ndarray:
+    """TRI_VERTS records as a float32 (n, 3, 4) view: corner k's xyz in [:, k, :3]."""
+    assert [word(TRI_VERTS, f) for f in ("p0", "p1", "p2")] == [0, 4, 8] and TRI_VERTS.itemsize == 48
+    return np.ascontiguousarray(tri_verts).view(np.float32).reshape(len(tri_verts), 3, 4)
+
+
 TRI_HAS_NORMALS = 1
 TRI_HAS_UVS = 2
 

@@ -8,6 +8,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import validate as V
+from ..accel.scene_bvh import triangle_bounds
 from ..device import layout
 from ..errors import SceneError
 from ..linalg import apply_normals, apply_points
@@ -188,7 +189,7 @@ class Mesh:
         else:                                     # the common case: no copies
             keep, fk = np.arange(len(f)), f
         k = len(keep)
-        tv = tri.reshape(k, 12).view(layout.TRI_VERTS).reshape(k)
+        tv = tri.reshape(k, 12).view(layout.TRI_VERTS).reshape(k)   # layout.tri_corners' view, inverted
         material = np.asarray(material)[self.face_materials()[keep]] if np.ndim(material) else material
         flags = 0
         arrays = {"tri_verts": tv}
@@ -198,14 +199,14 @@ class Mesh:
         if with_uvs:
             flags |= layout.TRI_HAS_UVS if self.uvs is not None else 0
             arrays["uvs"] = self.uvs if self.uvs is not None else np.zeros((len(p), 2))
-        # layout.TRI_SHADE as 8 words: v[3], material, object, prim, flags, pad (zero)
-        words = np.zeros((k, 8), np.uint32)
-        words[:, 0:3] = fk + vertex_offset
-        words[:, 3], words[:, 4], words[:, 5], words[:, 6] = material, object_id, keep, flags
-        arrays["tri_shade"] = words.view(layout.TRI_SHADE).reshape(k)
-        lo = np.minimum(np.minimum(tri[:, 0, :3], tri[:, 1, :3]), tri[:, 2, :3])
-        hi = np.maximum(np.maximum(tri[:, 0, :3], tri[:, 1, :3]), tri[:, 2, :3])
-        return DeviceRecords(arrays, lo, hi)
+        # layout.TRI_SHADE as plain words (the padding zero)
+        ts, w = layout.TRI_SHADE, layout.word
+        words = np.zeros((k, ts.itemsize // 4), np.uint32)
+        words[:, w(ts, "v"):w(ts, "v") + 3] = fk + vertex_offset
+        for name, value in (("material", material), ("object", object_id), ("prim", keep), ("flags", flags)):
+            words[:, w(ts, name)] = value
+        arrays["tri_shade"] = words.view(ts).reshape(k)
+        return DeviceRecords(arrays, *triangle_bounds(tv))
 
 
 def _tame_normals(n):
