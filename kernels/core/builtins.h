@@ -17,6 +17,8 @@ __attribute__((overloadable)) inline float tx_fabs(float x) { return as_float(as
 __attribute__((overloadable)) inline float2 tx_fabs(float2 x) { return as_float2(as_uint2(x) & 0x7fffffffu); }
 __attribute__((overloadable)) inline float3 tx_fabs(float3 x) { return as_float3(as_uint3(x) & 0x7fffffffu); }
 __attribute__((overloadable)) inline float4 tx_fabs(float4 x) { return as_float4(as_uint4(x) & 0x7fffffffu); }
+__attribute__((overloadable)) inline float8 tx_fabs(float8 x) { return as_float8(as_uint8(x) & 0x7fffffffu); }
+__attribute__((overloadable)) inline float16 tx_fabs(float16 x) { return as_float16(as_uint16(x) & 0x7fffffffu); }
 #undef fabs
 #define fabs tx_fabs
 
@@ -65,8 +67,10 @@ __attribute__((overloadable)) inline float tx_rsqrt(float x) { return 1.0f / __b
  * once, so callers pass plain expressions). */
 #undef vload3
 #define vload3(o, p) ((float3)((p)[3 * (o)], (p)[3 * (o) + 1], (p)[3 * (o) + 2]))
-/* any(int4): some lane's sign bit set. */
+/* any(intN): some lane's sign bit set (int8, int16: accel/packet.h's lane masks). */
 __attribute__((overloadable)) inline int tx_any(int4 v) { return (v.x | v.y | v.z | v.w) < 0; }
+__attribute__((overloadable)) inline int tx_any(int8 v) { return tx_any(v.lo | v.hi); }
+__attribute__((overloadable)) inline int tx_any(int16 v) { return tx_any(v.lo | v.hi); }
 #undef any
 #define any tx_any
 

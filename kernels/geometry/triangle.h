@@ -24,14 +24,22 @@ typedef struct {
     float3 rx, ry, rz;   /* shear rows: (x', y', z') = (rx.q, ry.q, rz.q) for q = vertex - org */
 } WoopRay;
 
-inline WoopRay woop_setup(float3 org, float3 dir)
+/* The shear's axes: kz the direction's largest component, kx and ky the others in the
+ * order that keeps the winding. */
+inline void woop_axes(float3 dir, int* kx, int* ky, int* kz)
 {
     float3 ad = abs3(dir);
-    int kz = ad.x > ad.y ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
-    int kx = kz == 2 ? 0 : kz + 1;
-    int ky = kx == 2 ? 0 : kx + 1;
+    *kz = ad.x > ad.y ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
+    *kx = *kz == 2 ? 0 : *kz + 1;
+    *ky = *kx == 2 ? 0 : *kx + 1;
+    if (comp3(dir, *kz) < 0.0f) { int t = *kx; *kx = *ky; *ky = t; }   /* keep the winding */
+}
+
+inline WoopRay woop_setup(float3 org, float3 dir)
+{
+    int kx, ky, kz;
+    woop_axes(dir, &kx, &ky, &kz);
     float dz = comp3(dir, kz);
-    if (dz < 0.0f) { int t = kx; kx = ky; ky = t; }   /* keep the winding */
     float sx = comp3(dir, kx) / dz, sy = comp3(dir, ky) / dz, sz = 1.0f / dz;
     WoopRay w;
     w.org = org;
@@ -41,6 +49,52 @@ inline WoopRay woop_setup(float3 org, float3 dir)
     return w;
 }
 
+/* The watertight test's arithmetic, written once for two shapes of vector code:
+ * triangle_intersect4 (one ray, a float4 lane per triangle) and, with TX_PACKET,
+ * triangle_any_packet (one triangle, a lane per ray of a packet: accel/packet.h). Each
+ * macro is plain arithmetic on its operands, scalar or vector alike, so that a lane
+ * computes the same floats in both: a packet's any-hit answers are the scalar ones, bit
+ * for bit.
+ * TX_WOOP_SHEAR: component (r.x, r.y, r.z) . q of a vertex q = (X, Y, Z) - org relative
+ * to the ray origin, as explicit multiply-adds under FP_CONTRACT OFF. */
+#define TX_WOOP_SHEAR(rx_, ry_, rz_, X, Y, Z) ((rx_) * (X) + (ry_) * (Y) + (rz_) * (Z))
+/* The edge functions of the sheared 2-D vertices a, b, c. */
+#define TX_WOOP_EDGES(U, V, W, ax, ay, bx, by, cx, cy) \
+    U = (cx) * (by) - (cy) * (bx); V = (ax) * (cy) - (ay) * (cx); W = (bx) * (ay) - (by) * (ax)
+/* The rounding-error bound of t = T / det (pbrt-v4 6.5.3, "Conservative Ray-Triangle t
+ * Tests"): a ray leaving a surface from a point offset by that surface's error bound
+ * cannot re-hit it: t > delta_t is required. */
+#define TX_WOOP_DELTA_T(T_, delta_t, ax, ay, az, bx, by, bz, cx, cy, cz, U, V, W, inv) do { \
+    T_ max_z = TX_MAX(TX_MAX(fabs(az), fabs(bz)), fabs(cz)); \
+    T_ max_x = TX_MAX(TX_MAX(fabs(ax), fabs(bx)), fabs(cx)); \
+    T_ max_y = TX_MAX(TX_MAX(fabs(ay), fabs(by)), fabs(cy)); \
+    T_ delta_z = gamma_n(3.0f) * max_z; \
+    T_ delta_x = gamma_n(5.0f) * (max_x + max_z); \
+    T_ delta_y = gamma_n(5.0f) * (max_y + max_z); \
+    T_ delta_e = 2.0f * (gamma_n(2.0f) * max_x * max_y + delta_y * max_x + delta_x * max_y); \
+    T_ max_e = TX_MAX(TX_MAX(fabs(U), fabs(V)), fabs(W)); \
+    delta_t = 3.0f * (gamma_n(3.0f) * max_e * max_z + delta_e * max_z + delta_z * max_e) * fabs(inv); \
+} while (0)
+/* Where an edge function rounded to exactly zero, lanes k in [0, N) recomputed in float64
+ * (when the device has it); the nine sheared coordinates and the three edge functions are
+ * vectors of N lanes (vstore/vload of that width). */
+#ifdef cl_khr_fp64
+#define TX_WOOP_EXACT_EDGES(N, U, V, W, ax, ay, bx, by, cx, cy) do { \
+    float u_[N], v_[N], w_[N], ax_[N], ay_[N], bx_[N], by_[N], cx_[N], cy_[N]; \
+    vstore##N(U, 0, u_); vstore##N(V, 0, v_); vstore##N(W, 0, w_); \
+    vstore##N(ax, 0, ax_); vstore##N(ay, 0, ay_); vstore##N(bx, 0, bx_); vstore##N(by, 0, by_); \
+    vstore##N(cx, 0, cx_); vstore##N(cy, 0, cy_); \
+    for (int j = 0; j < N; ++j) { \
+        if (u_[j] == 0.0f || v_[j] == 0.0f || w_[j] == 0.0f) { \
+            u_[j] = (float)((double)cx_[j] * (double)by_[j] - (double)cy_[j] * (double)bx_[j]); \
+            v_[j] = (float)((double)ax_[j] * (double)cy_[j] - (double)ay_[j] * (double)cx_[j]); \
+            w_[j] = (float)((double)bx_[j] * (double)ay_[j] - (double)by_[j] * (double)ax_[j]); \
+        } \
+    } \
+    U = vload##N(0, u_); V = vload##N(0, v_); W = vload##N(0, w_); \
+} while (0)
+#endif
+
 /* The triangles tr[0..n) of a leaf (n in 1..4) against the ray at once, one per float4
  * lane, so that most leaves cost one vector test and an early exit instead of n scalar
  * ones (perf, textured meshes on PoCL: the scalar test was 53% of the frame). Lanes >= n
@@ -48,8 +102,7 @@ inline WoopRay woop_setup(float3 org, float3 dir)
  * nearest hit with t in (tmin, tmax) (ties: the lowest lane, as a loop taking only a
  * strictly nearer hit would), writing t and the barycentrics b1, b2 of p1, p2
  * (P = (1 - b1 - b2) P0 + b1 P1 + b2 P2, the lecture's form); -1 for none. Degenerate
- * (zero-area) triangles and NaN inputs never hit. The shear is written as explicit
- * multiply-adds under FP_CONTRACT OFF, like the edge functions. */
+ * (zero-area) triangles and NaN inputs never hit. */
 inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, uint n,
                                float tmin, float tmax, float* t, float* b1, float* b2)
 {
@@ -67,53 +120,29 @@ inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, ui
     float4 Cx = (float4)(c0.x, c1.x, c2.x, c3.x) - o.x, Cy = (float4)(c0.y, c1.y, c2.y, c3.y) - o.y,
            Cz = (float4)(c0.z, c1.z, c2.z, c3.z) - o.z;
     float3 rx = w->rx, ry = w->ry, rz = w->rz;
-    float4 ax = rx.x * Ax + rx.y * Ay + rx.z * Az, ay = ry.x * Ax + ry.y * Ay + ry.z * Az;
-    float4 bx = rx.x * Bx + rx.y * By + rx.z * Bz, by = ry.x * Bx + ry.y * By + ry.z * Bz;
-    float4 cx = rx.x * Cx + rx.y * Cy + rx.z * Cz, cy = ry.x * Cx + ry.y * Cy + ry.z * Cz;
-    float4 U = cx * by - cy * bx;
-    float4 V = ax * cy - ay * cx;
-    float4 W = bx * ay - by * ax;
+    float4 ax = TX_WOOP_SHEAR(rx.x, rx.y, rx.z, Ax, Ay, Az), ay = TX_WOOP_SHEAR(ry.x, ry.y, ry.z, Ax, Ay, Az);
+    float4 bx = TX_WOOP_SHEAR(rx.x, rx.y, rx.z, Bx, By, Bz), by = TX_WOOP_SHEAR(ry.x, ry.y, ry.z, Bx, By, Bz);
+    float4 cx = TX_WOOP_SHEAR(rx.x, rx.y, rx.z, Cx, Cy, Cz), cy = TX_WOOP_SHEAR(ry.x, ry.y, ry.z, Cx, Cy, Cz);
+    float4 U, V, W;
+    TX_WOOP_EDGES(U, V, W, ax, ay, bx, by, cx, cy);
 #ifdef cl_khr_fp64
-    int4 z = (U == 0.0f) | (V == 0.0f) | (W == 0.0f);
-    if (any(z)) {                                   /* rare: an edge function rounded to 0 */
-        float u_[4], v_[4], w_[4], ax_[4], ay_[4], bx_[4], by_[4], cx_[4], cy_[4];
-        vstore4(U, 0, u_); vstore4(V, 0, v_); vstore4(W, 0, w_);
-        vstore4(ax, 0, ax_); vstore4(ay, 0, ay_); vstore4(bx, 0, bx_); vstore4(by, 0, by_);
-        vstore4(cx, 0, cx_); vstore4(cy, 0, cy_);
-        for (int j = 0; j < 4; ++j) {
-            if (u_[j] == 0.0f || v_[j] == 0.0f || w_[j] == 0.0f) {
-                u_[j] = (float)((double)cx_[j] * (double)by_[j] - (double)cy_[j] * (double)bx_[j]);
-                v_[j] = (float)((double)ax_[j] * (double)cy_[j] - (double)ay_[j] * (double)cx_[j]);
-                w_[j] = (float)((double)bx_[j] * (double)ay_[j] - (double)by_[j] * (double)ax_[j]);
-            }
-        }
-        U = vload4(0, u_); V = vload4(0, v_); W = vload4(0, w_);
-    }
+    if (any((U == 0.0f) | (V == 0.0f) | (W == 0.0f)))    /* rare: an edge function rounded to 0 */
+        TX_WOOP_EXACT_EDGES(4, U, V, W, ax, ay, bx, by, cx, cy);
 #endif
     /* NaN edge functions fail both sign tests: a miss. */
     int4 ok = ((U >= 0.0f) & (V >= 0.0f) & (W >= 0.0f)) | ((U <= 0.0f) & (V <= 0.0f) & (W <= 0.0f));
     ok &= (int4)(0, 1, 2, 3) < (int4)((int)n);
     if (!any(ok)) return -1;
     float4 det = U + V + W;
-    float4 az = rz.x * Ax + rz.y * Ay + rz.z * Az, bz = rz.x * Bx + rz.y * By + rz.z * Bz;
-    float4 cz = rz.x * Cx + rz.y * Cy + rz.z * Cz;
+    float4 az = TX_WOOP_SHEAR(rz.x, rz.y, rz.z, Ax, Ay, Az), bz = TX_WOOP_SHEAR(rz.x, rz.y, rz.z, Bx, By, Bz);
+    float4 cz = TX_WOOP_SHEAR(rz.x, rz.y, rz.z, Cx, Cy, Cz);
     float4 T = U * az + V * bz + W * cz;
     float4 inv = 1.0f / det;
     float4 tt = T * inv;
     ok &= (det != 0.0f) & (tt > tmin) & (tt < tmax);     /* NaN t fails */
     if (!any(ok)) return -1;
-    /* Reject t within its own rounding-error bound of zero (pbrt-v4 6.5.3,
-     * "Conservative Ray-Triangle t Tests"): a ray leaving a surface from a
-     * point offset by that surface's error bound cannot re-hit it. */
-    float4 max_z = TX_MAX(TX_MAX(fabs(az), fabs(bz)), fabs(cz));
-    float4 max_x = TX_MAX(TX_MAX(fabs(ax), fabs(bx)), fabs(cx));
-    float4 max_y = TX_MAX(TX_MAX(fabs(ay), fabs(by)), fabs(cy));
-    float4 delta_z = gamma_n(3.0f) * max_z;
-    float4 delta_x = gamma_n(5.0f) * (max_x + max_z);
-    float4 delta_y = gamma_n(5.0f) * (max_y + max_z);
-    float4 delta_e = 2.0f * (gamma_n(2.0f) * max_x * max_y + delta_y * max_x + delta_x * max_y);
-    float4 max_e = TX_MAX(TX_MAX(fabs(U), fabs(V)), fabs(W));
-    float4 delta_t = 3.0f * (gamma_n(3.0f) * max_e * max_z + delta_e * max_z + delta_z * max_e) * fabs(inv);
+    float4 delta_t;
+    TX_WOOP_DELTA_T(float4, delta_t, ax, ay, az, bx, by, bz, cx, cy, cz, U, V, W, inv);
     ok &= tt > delta_t;
     int lane = -1;
     float best = tmax;

@@ -16,6 +16,9 @@
 #ifndef TEXRAY_SHADOW_H
 #define TEXRAY_SHADOW_H
 #include "accel/bvh.h"
+#if TX_PACKET
+#include "accel/packet.h"
+#endif
 
 /* The shadow ray's origin for the surface point s (see above); *lifted says whether the
  * side test uses the shading normal. */
@@ -26,19 +29,54 @@ inline float3 shadow_origin(const Surface* s, int* lifted)
     return offset_point(vload3(0, s->p) + lift, vload3(0, s->ng), s->offset);
 }
 
-/* 1 when the light at lpos is visible from the shadow origin org of s. A shadow ray
- * that ray_valid (core/common.h) rejects -- a light or a surface point that is not finite
- * (a light at 1e39 is inf in float32), a light farther than 2^126 on an axis, a light
- * at the shadow origin itself (d = 0) -- sees no light: 0, also without TX_SHADOWS, so
- * that shading never meets such a light (its I / d^2 would be 0 x inf or inf / inf).
- * For every other light the test is unchanged. */
+/* Whether the light at lpos can be seen from the shadow origin org of s at all, before
+ * any ray is traced; *d is the shadow ray's direction (t in (0, 1) reaches the light).
+ * A shadow ray that ray_valid (core/common.h) rejects -- a light or a surface point that is
+ * not finite (a light at 1e39 is inf in float32), a light farther than 2^126 on an axis, a
+ * light at the shadow origin itself (d = 0) -- sees no light: 0, also without TX_SHADOWS,
+ * so that shading never meets such a light (its I / d^2 would be 0 x inf or inf / inf).
+ * Nor does a light on the far side of the surface (the side test). */
+inline int shadow_ray(const Surface* s, float3 org, int lifted, float3 lpos, float3* d)
+{
+    *d = lpos - org;
+    if (!ray_valid(org, *d, 0.0f, 1.0f)) return 0;
+    return dot3(*d, lifted ? vload3(0, s->ns) : vload3(0, s->ng)) > 0.0f;   /* NaN: 0 */
+}
+
+/* 1 when the light at lpos is visible from the shadow origin org of s. */
 inline uchar light_visible(const Surface* s, float3 org, int lifted, float3 lpos, TX_GEOM_PARAMS)
 {
-    float3 d = lpos - org;
-    if (!ray_valid(org, d, 0.0f, 1.0f)) return 0;
-    if (!(dot3(d, lifted ? vload3(0, s->ns) : vload3(0, s->ng)) > 0.0f)) return 0;   /* NaN: 0 */
+    float3 d;
+    if (!shadow_ray(s, org, lifted, lpos, &d)) return 0;
     if (TX_SHADOWS) return !bvh_any(TX_GEOM_ARGS, org, d, 0.0f, 1.0f);
     return 1;
 }
+
+#if TX_PACKET
+/* light_visible for the m <= TX_PACKET surface points s[0..m) with their shadow origins
+ * org[j] and lifted[j] (shadow_origin), into vis[j]: the same answers, from one packet
+ * traversal (accel/packet.h). Points that are not valid get 0. */
+inline void light_visible_packet(const Surface* s, const float3* org, const int* lifted, uint m, float3 lpos,
+                                 TX_GEOM_PARAMS, uchar* vis)
+{
+    PacketRay r;
+    int act[TX_PACKET];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        float3 o = (float3)(0.0f), d = (float3)(0.0f, 0.0f, 1.0f);    /* lanes not traced: any valid ray */
+        act[j] = 0;
+        if (j < m && s[j].valid) {
+            float3 dj;
+            if (shadow_ray(s + j, org[j], lifted[j], lpos, &dj)) { o = org[j]; d = dj; act[j] = -1; }
+        }
+        r.org[0][j] = o.x; r.org[1][j] = o.y; r.org[2][j] = o.z;
+        r.dir[0][j] = d.x; r.dir[1][j] = d.y; r.dir[2][j] = d.z;
+        r.range[0][j] = 0.0f; r.range[1][j] = 1.0f;
+    }
+    packet_setup(&r);
+    int occ[TX_PACKET];
+    PSTORE(bvh_any_packet(TX_GEOM_ARGS, &r, (pint)(TX_LANES(act))), occ);
+    for (uint j = 0; j < m; ++j) vis[j] = act[j] && !occ[j];
+}
+#endif
 
 #endif

@@ -10,6 +10,12 @@
  * tile's pixels listed in `active` (n of them) and each also adds the squares of its
  * samples' luminance to sum_y2, the host's variance estimate; otherwise work-item gid
  * is pixel gid of the tile and both are NULL. */
+#if TX_PACKET
+#define TX_CHUNK TX_PACKET
+#else
+#define TX_CHUNK 1
+#endif
+
 __kernel void render_fused(__global float4* accum, __global const uint* active, __global float* sum_y2, uint n,
                            uint y0, uint sample0, uint nsamples, uint seed, uint jitter,
                            TX_GEOM_PARAMS, TX_SURFACE_PARAMS, TX_LIGHT_PARAMS, float4 ambient, float4 background)
@@ -23,31 +29,48 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
     uint px = gid % image_w, py = y0 + gid / image_w;
     uint pattern = pixel_pattern(image_w, px, py, seed), grid_m = cmj_grid_m(spp);
     float3 sum = (float3)(0.0f);
-    for (uint k = 0; k < nsamples; ++k) {
-        float2 j = jitter ? cmj_sample_m(sample0 + k, spp, grid_m, pattern) : (float2)(0.5f, 0.5f);
-        float3 org, dir;
-        camera_ray(cam, image_w, image_h, px, py, j, &org, &dir);
-        HitRec h = bvh_closest(TX_GEOM_ARGS, org, dir, 0.0f, INFINITY);
-        Surface s;
-        surface_eval(org, dir, h, TX_GEOM_ARGS, TX_SURFACE_ARGS, (__global float*)0, gid, &s);
-        float3 c = background.xyz;
-        if (s.valid) {
-            float3 v = -normalize3(dir);
-            c = ambient.xyz * vload3(0, s.kd);
-            int lifted;
-            float3 sorg = shadow_origin(&s, &lifted);
-            FOR_EACH_LIGHT(i, nlights) {
-                float3 lpos = vload3(0, lights[i].position);
-                if (light_visible(&s, sorg, lifted, lpos, TX_GEOM_ARGS))
-                    c += light_term(&s, v, lpos, vload3(0, lights[i].intensity));
+    /* Samples in chunks of TX_CHUNK: each sample's camera ray, hit and surface, then each
+     * light's shadow rays for the whole chunk (with TX_PACKET one packet traversal,
+     * accel/packet.h; else TX_CHUNK is 1 and this is the plain per-sample loop), then the
+     * samples' sums. Every sample adds the same terms in the same order either way. */
+    for (uint k0 = 0; k0 < nsamples; k0 += TX_CHUNK) {
+        uint m = TX_MIN(nsamples - k0, (uint)TX_CHUNK);
+        Surface s[TX_CHUNK];
+        float3 v[TX_CHUNK], c[TX_CHUNK], sorg[TX_CHUNK];
+        int lifted[TX_CHUNK];
+        uchar vis[TX_CHUNK];
+        for (uint j = 0; j < m; ++j) {
+            float2 jit = jitter ? cmj_sample_m(sample0 + k0 + j, spp, grid_m, pattern) : (float2)(0.5f, 0.5f);
+            float3 org, dir;
+            camera_ray(cam, image_w, image_h, px, py, jit, &org, &dir);
+            HitRec h = bvh_closest(TX_GEOM_ARGS, org, dir, 0.0f, INFINITY);
+            surface_eval(org, dir, h, TX_GEOM_ARGS, TX_SURFACE_ARGS, (__global float*)0, gid, s + j);
+            c[j] = background.xyz;
+            if (s[j].valid) {
+                v[j] = -normalize3(dir);
+                c[j] = ambient.xyz * vload3(0, s[j].kd);
+                sorg[j] = shadow_origin(s + j, lifted + j);
             }
         }
-        c = clamp_radiance(c);
-        sum += c;
-#if TX_ADAPTIVE
-        float y = 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z;     /* Rec. 709 luminance */
-        y2 += y * y;
+        FOR_EACH_LIGHT(i, nlights) {
+            float3 lpos = vload3(0, lights[i].position);
+#if TX_PACKET
+            light_visible_packet(s, sorg, lifted, m, lpos, TX_GEOM_ARGS, vis);
+#else
+            for (uint j = 0; j < m; ++j)
+                vis[j] = s[j].valid && light_visible(s + j, sorg[j], lifted[j], lpos, TX_GEOM_ARGS);
 #endif
+            for (uint j = 0; j < m; ++j)
+                if (vis[j]) c[j] += light_term(s + j, v[j], lpos, vload3(0, lights[i].intensity));
+        }
+        for (uint j = 0; j < m; ++j) {
+            float3 cj = clamp_radiance(c[j]);
+            sum += cj;
+#if TX_ADAPTIVE
+            float y = 0.2126f * cj.x + 0.7152f * cj.y + 0.0722f * cj.z;     /* Rec. 709 luminance */
+            y2 += y * y;
+#endif
+        }
     }
     accum[gid] += (float4)(sum, (float)nsamples);
 #if TX_ADAPTIVE

@@ -12,7 +12,7 @@ import pytest
 from texray.device.features import Features, compile_options
 
 
-@pytest.mark.parametrize("which", ["generic", "lean"])
+@pytest.mark.parametrize("which", ["generic", "lean", "packet8", "packet16"])
 def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
     if which == "generic" and "Intel" in any_rt.device.platform.name and not os.environ.get("TEXRAY_TEST_SLOW_BUILDS"):
         # 64-77 s on Intel's runtime (the README's "Default device"), a twentieth of the CI budget:
@@ -20,9 +20,15 @@ def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
         pytest.skip("the generic program on Intel's runtime takes over a minute; TEXRAY_TEST_SLOW_BUILDS=1 builds it")
     f = Features.generic() if which == "generic" else dataclasses.replace(
         Features(), shadows=False, max_lights=1, stack_size=32)
-    prg = any_rt.program(compile_options(f), extra_options=("-Werror",))
+    options = compile_options(f)
+    if which.startswith("packet"):     # shadow-ray packets (accel/packet.h), on any device
+        f = Features(textures=True, vertex_normals=True, specular=True, filter_bilinear=True, max_lights=2,
+                     stack_size=32)
+        options = {**compile_options(f), "TX_PACKET": int(which.removeprefix("packet"))}
+    prg = any_rt.program(options, extra_options=("-Werror",))
     names = set(prg.get_info(cl.program_info.KERNEL_NAMES).split(";"))
     assert {"raygen", "intersect", "surface", "shadow", "shade", "render_fused", "occluded"} <= names
+    assert ("occluded_packet" in names) == which.startswith("packet")
 
 
 def test_the_bvh_build_kernel_builds_and_gives_a_valid_tree(any_rt, monkeypatch):

@@ -116,10 +116,11 @@ def build_times(path, device, generic=True):
 
 
 def program_variants(paths):
-    """The distinct programs (feature sets) that rendering every scene in ``paths`` builds."""
+    """The distinct programs (feature sets) that rendering every scene in ``paths`` builds
+    on PoCL's CPU device (the default; the packet rule depends on the device)."""
     seen = {}
     for p in paths:
-        key = tuple(sorted(compile_options(compile_scene(Scene.load(p)).features).items()))
+        key = tuple(sorted(compile_options(compile_scene(Scene.load(p)).features, "pocl").items()))
         seen.setdefault(key, []).append(str(p))
     return [{"defines": dict(k), "scenes": v} for k, v in seen.items()]
 

@@ -3,7 +3,10 @@ kernel compile-time definitions. Every ``#if`` in kernels/ uses a name emitted h
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass
+
+from ..errors import DeviceError
 
 
 @dataclass(frozen=True)
@@ -81,9 +84,37 @@ def max_lights_for(n: int) -> int:
     return 0
 
 
-def compile_options(f: Features) -> dict[str, int]:
-    """``-D`` definitions for the kernels: the only place feature names become macros."""
+# Shadow-ray packets (kernels/accel/packet.h: TX_PACKET rays of a pixel's samples toward a
+# light traced as one, N lanes wide) per device kind, where they measured faster: PoCL's
+# CPU device (LLVM turns the float16 arithmetic into AVX-512 or AVX2 code). GPUs and
+# Intel's CPU runtime already spread work-items across SIMD lanes. README, Performance.
+PACKET_WIDTHS = {"pocl": 16}
+
+
+def packet_width(f: Features, device_kind: str | None) -> int:
+    """TX_PACKET for a program of features ``f`` on a device of ``device_kind``
+    (``texray.device.opencl``'s kinds): the kind's width from :data:`PACKET_WIDTHS` for
+    scenes whose shadow rays meet only triangles, else 0 (no packets). Other kinds'
+    leaves are tested lane by lane in a packet, which measured slower than the scalar
+    traversal (README, Performance). ``TEXRAY_PACKET`` (0, 8 or 16) overrides the rule
+    for A/B runs; the images are the same bit for bit whatever the width."""
+    override = os.environ.get("TEXRAY_PACKET")
+    if override is not None and override.strip() != "":
+        if override.strip() not in ("0", "8", "16"):
+            raise DeviceError(f"TEXRAY_PACKET: expected 0, 8 or 16, got {override!r}")
+        width = int(override)
+    else:
+        only_triangles = f.triangles and not (f.spheres or f.cylinders or f.quads or f.displacement or f.instances)
+        width = PACKET_WIDTHS.get(device_kind, 0) if only_triangles else 0
+    return width if f.shadows else 0
+
+
+def compile_options(f: Features, device_kind: str | None = None) -> dict[str, int]:
+    """``-D`` definitions for the kernels: the only place feature names become macros.
+    ``device_kind`` (a Runtime's ``kind``) chooses the packet width (:func:`packet_width`);
+    None: no packets."""
     return {
+        "TX_PACKET": packet_width(f, device_kind),
         "TX_TEXTURES": int(f.textures),
         "TX_VERTEX_NORMALS": int(f.vertex_normals),
         "TX_SPECULAR": int(f.specular),

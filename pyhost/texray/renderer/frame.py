@@ -53,7 +53,7 @@ def device_program(cs, device, local_size):
     rt = runtime(device)
     if cs.texels is not None:
         check_device_limits(cs.texels.nbytes, list(cs.texture_names), rt.device.max_mem_alloc_size)
-    return rt, rt.program(compile_options(cs.features)), rt.local_size(local_size)
+    return rt, rt.program(compile_options(cs.features, rt.kind)), rt.local_size(local_size)
 
 
 def per_ray_bytes(cs, fused, aovs, adaptive):

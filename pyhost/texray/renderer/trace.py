@@ -5,6 +5,7 @@ For tests (device results against float64 references) and the benchmark
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,10 +33,15 @@ class Tracer:
         cs = scene_or_compiled if isinstance(scene_or_compiled, CompiledScene) else compile_scene(scene_or_compiled)
         self.compiled = cs
         self.rt = runtime(device)
-        self.program = self.rt.program(compile_options(cs.features))
+        # as a render with shadow rays would build it (a scene without lights has none)
+        options = compile_options(dataclasses.replace(cs.features, shadows=True), self.rt.kind)
+        self.program = self.rt.program(options)
         self.up = Uploaded(self.rt.context, cs)
         self._k_closest = cl.Kernel(self.program, "intersect")
-        self._k_any = cl.Kernel(self.program, "occluded")
+        # any hit: packets of `packet` rays per work-item where the program has them (as the
+        # renderer's shadow rays on this device, texray.device.features.packet_width)
+        self.packet = options["TX_PACKET"]
+        self._k_any = cl.Kernel(self.program, "occluded_packet" if self.packet else "occluded")
 
     def _rays(self, org, dirs, tmin, tmax):
         n = len(dirs)
@@ -61,6 +67,7 @@ class Tracer:
         n, rays = self._rays(org, dirs, tmin, tmax)
         out = np.zeros(n, np.uint8)
         buf = cl.Buffer(self.rt.context, cl.mem_flags.WRITE_ONLY, max(n, 16))
-        ev = self._k_any(self.rt.queue, (n,), None, rays, buf, np.uint32(n), *self.up.geom)
+        items = -(-n // self.packet) if self.packet else n
+        ev = self._k_any(self.rt.queue, (items,), None, rays, buf, np.uint32(n), *self.up.geom)
         cl.enqueue_copy(self.rt.queue, out, buf, wait_for=[ev])
         return out.astype(bool), (ev.profile.end - ev.profile.start) * 1e-9

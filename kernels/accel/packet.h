@@ -1,0 +1,253 @@
+#line 2 "accel/packet.h"
+/* Packets: TX_PACKET (8 or 16) any-hit rays traced together, one per vector lane -- the
+ * shadow rays of a pixel's samples toward one light (shading/shadow.h, stages/fused.cl),
+ * which start within one pixel's footprint and end at one point, so they enter nearly
+ * the same nodes.
+ *
+ * The scalar traversal (accel/bvh.h bvh_any) tests one ray against a node's four boxes as
+ * a float4; here each of the four boxes is tested against every ray of the packet as one
+ * floatN, and a leaf's triangles one at a time against the whole packet
+ * (triangle_any_packet), so that the node reads, the stack and the loop are shared by N
+ * rays and the arithmetic runs N wide.
+ *
+ * The same answers, bit for bit: every lane computes its box and triangle tests with the
+ * scalar code's arithmetic (the same formulas in the same order, FP_CONTRACT OFF:
+ * box_entry_packet is box4_entry's, triangle_any_packet shares geometry/triangle.h's
+ * macros with triangle_intersect4), and a lane is tested against exactly the boxes and
+ * leaves that the scalar traversal tests for its ray, in the same order: the stack
+ * carries each entry's lane mask (the lanes that entered that box), and a lane leaves
+ * the packet at its first hit, where the scalar traversal returns. Leaves of the other
+ * kinds (spheres, cylinders, quads, displaced shapes, instances) are tested lane by lane
+ * by the scalar leaf_hit (geometry/dispatch.h), so every kind keeps one intersector. The
+ * host compiles packets in only where they measured faster (texray.device.features). */
+#ifndef TEXRAY_PACKET_H
+#define TEXRAY_PACKET_H
+#include "accel/bvh.h"
+
+#if TX_PACKET == 16
+typedef float16 pfloat;
+typedef int16 pint;
+#define as_pint as_int16
+#define as_pfloat as_float16
+#define TX_PACKET_EXACT_EDGES(U, V, W, ax, ay, bx, by, cx, cy) TX_WOOP_EXACT_EDGES(16, U, V, W, ax, ay, bx, by, cx, cy)
+#define TX_LANES(p) (p)[0], (p)[1], (p)[2], (p)[3], (p)[4], (p)[5], (p)[6], (p)[7], \
+                  (p)[8], (p)[9], (p)[10], (p)[11], (p)[12], (p)[13], (p)[14], (p)[15]
+#define PSTORE(v, p) vstore16(v, 0, p)
+#elif TX_PACKET == 8
+typedef float8 pfloat;
+typedef int8 pint;
+#define as_pint as_int8
+#define as_pfloat as_float8
+#define TX_PACKET_EXACT_EDGES(U, V, W, ax, ay, bx, by, cx, cy) TX_WOOP_EXACT_EDGES(8, U, V, W, ax, ay, bx, by, cx, cy)
+#define TX_LANES(p) (p)[0], (p)[1], (p)[2], (p)[3], (p)[4], (p)[5], (p)[6], (p)[7]
+#define PSTORE(v, p) vstore8(v, 0, p)
+#else
+#error "TX_PACKET must be 8 or 16"
+#endif
+
+/* The packet's rays org + t dir, t in (tmin, tmax), one per lane, with what the scalar
+ * traversal derives once per ray: safe_inverse of the direction, its signs, the parallel
+ * flag and woop_setup's shear rows; and the rays as arrays, for the lane-by-lane paths.
+ * The caller fills org, dir and range (lanes it does not trace with any valid ray: they
+ * are masked out) and calls packet_setup. */
+typedef struct {
+    float org[3][TX_PACKET], dir[3][TX_PACKET], range[2][TX_PACKET];
+    pfloat tmin, tmax;
+    pfloat ox, oy, oz;
+    pfloat ivx, ivy, ivz;
+    pint nx, ny, nz, par;
+    pfloat rxx, rxy, rxz, ryx, ryy, ryz, rzx, rzy, rzz;
+} PacketRay;
+
+/* c ? a : b lane by lane for a lane mask c (-1 or 0 per lane), as bit operations: Oclgrind
+ * 21.10 evaluates ?: on int16 vectors wrongly (true lanes of `c ? (int16)(1) : (int16)(2)`
+ * read 255), and LLVM makes the same blend of either form. */
+#define PSEL_I(c, a, b) (((c) & (a)) | (~(c) & (b)))
+#define PSEL_F(c, a, b) as_pfloat(PSEL_I(c, as_pint(a), as_pint(b)))
+/* TX_MAX and TX_MIN (core/common.h), the same choice per lane (NaN: the second operand). */
+#define PMAX(a, b) PSEL_F((a) > (b), a, b)
+#define PMIN(a, b) PSEL_F((a) < (b), a, b)
+
+/* safe_inverse (core/common.h) lane by lane: +-2^100 with x's sign bit (copysign). */
+inline pfloat safe_inverse_p(pfloat x)
+{
+    pfloat big = as_pfloat((as_pint(x) & (pint)(0x80000000)) | (pint)(as_int(TX_PARALLEL_INV)));
+    return PSEL_F(fabs(x) < 7.888609e-31f, big, 1.0f / x);
+}
+
+/* What the scalar traversal derives per ray, lane by lane, with its arithmetic: woop_setup's
+ * axes (woop_axes) as lane masks -- kz == i, and kx, ky from it, swapped where d[kz] < 0
+ * -- and its shear rows unit3(k) - s unit3(kz), s = d[k] / d[kz]; safe_inverse, the signs
+ * and the parallel flag. The masks are combined with bit operations only: a select among
+ * constant int vectors is what Oclgrind 21.10 miscomputes (woop_axes per lane in scalar
+ * code measured 12% of a textured-mesh frame). */
+inline void packet_setup(PacketRay* r)
+{
+    pfloat dx = (pfloat)(TX_LANES(r->dir[0])), dy = (pfloat)(TX_LANES(r->dir[1])), dz = (pfloat)(TX_LANES(r->dir[2]));
+    r->tmin = (pfloat)(TX_LANES(r->range[0])); r->tmax = (pfloat)(TX_LANES(r->range[1]));
+    r->ox = (pfloat)(TX_LANES(r->org[0])); r->oy = (pfloat)(TX_LANES(r->org[1])); r->oz = (pfloat)(TX_LANES(r->org[2]));
+    r->ivx = safe_inverse_p(dx); r->ivy = safe_inverse_p(dy); r->ivz = safe_inverse_p(dz);
+    r->par = (fabs(r->ivx) >= TX_PARALLEL_INV) | (fabs(r->ivy) >= TX_PARALLEL_INV) | (fabs(r->ivz) >= TX_PARALLEL_INV);
+    r->nx = r->ivx < 0.0f; r->ny = r->ivy < 0.0f; r->nz = r->ivz < 0.0f;
+    pfloat adx = fabs(dx), ady = fabs(dy), adz = fabs(dz);
+    pint cxy = adx > ady, cxz = adx > adz, cyz = ady > adz;
+    pint z0 = cxy & cxz, z1 = ~cxy & cyz, z2 = ~(z0 | z1);            /* kz == 0, 1, 2 */
+    /* kx = kz == 2 ? 0 : kz + 1 and ky = kx == 2 ? 0 : kx + 1, as masks */
+    pint x0 = z2, x1 = z0, x2 = z1, y0 = z1, y1 = z2, y2 = z0;
+    pfloat dkz = PSEL_F(z0, dx, PSEL_F(z1, dy, dz));
+    pint neg = dkz < 0.0f;                                              /* keep the winding: swap kx, ky */
+    pint X0 = PSEL_I(neg, y0, x0), X1 = PSEL_I(neg, y1, x1), X2 = PSEL_I(neg, y2, x2);
+    pint Y0 = PSEL_I(neg, x0, y0), Y1 = PSEL_I(neg, x1, y1), Y2 = PSEL_I(neg, x2, y2);
+    pfloat sx = PSEL_F(X0, dx, PSEL_F(X1, dy, dz)) / dkz, sy = PSEL_F(Y0, dx, PSEL_F(Y1, dy, dz)) / dkz;
+    pfloat sz = 1.0f / dkz;
+    pfloat one = (pfloat)(1.0f), zero = (pfloat)(0.0f);
+    pfloat uzx = PSEL_F(z0, one, zero), uzy = PSEL_F(z1, one, zero), uzz = PSEL_F(z2, one, zero);
+    r->rxx = PSEL_F(X0, one, zero) - sx * uzx; r->rxy = PSEL_F(X1, one, zero) - sx * uzy;
+    r->rxz = PSEL_F(X2, one, zero) - sx * uzz;
+    r->ryx = PSEL_F(Y0, one, zero) - sy * uzx; r->ryy = PSEL_F(Y1, one, zero) - sy * uzy;
+    r->ryz = PSEL_F(Y2, one, zero) - sy * uzz;
+    r->rzx = sz * uzx; r->rzy = sz * uzy; r->rzz = sz * uzz;
+}
+
+/* box4_entry (accel/bvh.h) for one box and every lane: the entry distance, INFINITY for
+ * a miss; lanes in m that are parallel to an axis and missed are re-tested exactly. */
+inline pfloat box_entry_packet(const PacketRay* r, float lox, float hix, float loy, float hiy, float loz, float hiz,
+                               pint m)
+{
+    pfloat tnx = (PSEL_F(r->nx, (pfloat)(hix), (pfloat)(lox)) - r->ox) * r->ivx;
+    pfloat tfx = (PSEL_F(r->nx, (pfloat)(lox), (pfloat)(hix)) - r->ox) * r->ivx;
+    pfloat tny = (PSEL_F(r->ny, (pfloat)(hiy), (pfloat)(loy)) - r->oy) * r->ivy;
+    pfloat tfy = (PSEL_F(r->ny, (pfloat)(loy), (pfloat)(hiy)) - r->oy) * r->ivy;
+    pfloat tnz = (PSEL_F(r->nz, (pfloat)(hiz), (pfloat)(loz)) - r->oz) * r->ivz;
+    pfloat tfz = (PSEL_F(r->nz, (pfloat)(loz), (pfloat)(hiz)) - r->oz) * r->ivz;
+    pfloat tn = PMAX(PMAX(tnx, tny), PMAX(tnz, r->tmin));
+    pfloat tf = PMIN(PMIN(tfx, tfy), tfz) * (1.0f + 2.0f * gamma_n(3.0f));
+    tf = PMIN(tf, r->tmax);
+    pfloat t = PSEL_F(tn <= tf, tn, (pfloat)(INFINITY));
+    pint redo = m & r->par & (t == INFINITY);
+    if (any(redo)) {                             /* rare: a direction component is zero */
+        float tl[TX_PACKET];
+        int rl[TX_PACKET];
+        PSTORE(t, tl);
+        PSTORE(redo, rl);
+        for (int j = 0; j < TX_PACKET; ++j)
+            if (rl[j])
+                tl[j] = box_entry_parallel((float4)(lox, loy, loz, 0.0f), (float4)(hix, hiy, hiz, 0.0f),
+                                           (float3)(r->org[0][j], r->org[1][j], r->org[2][j]),
+                                           (float3)(r->dir[0][j], r->dir[1][j], r->dir[2][j]), r->range[0][j],
+                                           r->range[1][j]);
+        t = (pfloat)(TX_LANES(tl));
+    }
+    return t;
+}
+
+/* The triangle tv against the lanes m of the packet, as triangle_intersect4 tests it for
+ * one ray: the lanes with a hit in their (tmin, tmax) (-1), others 0. */
+inline pint triangle_any_packet(const PacketRay* r, __global const TriVerts* tv, pint m)
+{
+    float3 a = tri_p0(tv), b = tri_p1(tv), c = tri_p2(tv);
+    pfloat Ax = a.x - r->ox, Ay = a.y - r->oy, Az = a.z - r->oz;
+    pfloat Bx = b.x - r->ox, By = b.y - r->oy, Bz = b.z - r->oz;
+    pfloat Cx = c.x - r->ox, Cy = c.y - r->oy, Cz = c.z - r->oz;
+    pfloat ax = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Ax, Ay, Az), ay = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Ax, Ay, Az);
+    pfloat bx = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Bx, By, Bz), by = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Bx, By, Bz);
+    pfloat cx = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Cx, Cy, Cz), cy = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Cx, Cy, Cz);
+    pfloat U, V, W;
+    TX_WOOP_EDGES(U, V, W, ax, ay, bx, by, cx, cy);
+#ifdef cl_khr_fp64
+    if (any(m & ((U == 0.0f) | (V == 0.0f) | (W == 0.0f))))
+        TX_PACKET_EXACT_EDGES(U, V, W, ax, ay, bx, by, cx, cy);
+#endif
+    pint ok = m & (((U >= 0.0f) & (V >= 0.0f) & (W >= 0.0f)) | ((U <= 0.0f) & (V <= 0.0f) & (W <= 0.0f)));
+    if (!any(ok)) return ok;
+    pfloat det = U + V + W;
+    pfloat az = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Ax, Ay, Az), bz = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Bx, By, Bz);
+    pfloat cz = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Cx, Cy, Cz);
+    pfloat T = U * az + V * bz + W * cz;
+    pfloat inv = 1.0f / det;
+    pfloat tt = T * inv;
+    ok &= (det != 0.0f) & (tt > r->tmin) & (tt < r->tmax);
+    if (!any(ok)) return ok;
+    pfloat delta_t;
+    TX_WOOP_DELTA_T(pfloat, delta_t, ax, ay, az, bx, by, bz, cx, cy, cz, U, V, W, inv);
+    return ok & (tt > delta_t);
+}
+
+/* The leaf (first, ck) against the lanes m: the lanes with a hit. Triangles one at a time
+ * against the packet; every other kind lane by lane through leaf_hit. */
+inline pint leaf_any_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint ck, pint m)
+{
+    uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
+    pint hit = (pint)(0);
+    if (TX_TRIANGLES && kind == PRIM_TRIANGLE) {
+        uint count = end > first ? end - first : 0u;     /* as leaf_hit: no index wraps */
+        for (uint k = 0; k < count; ++k) {
+            hit |= triangle_any_packet(r, tris + first + k, m & ~hit);
+            if (!any(m & ~hit)) break;
+        }
+        return hit;
+    }
+    int ml[TX_PACKET], hl[TX_PACKET];
+    PSTORE(m, ml);
+    for (int j = 0; j < TX_PACKET; ++j) {
+        hl[j] = 0;
+        if (!ml[j]) continue;
+        float3 o = (float3)(r->org[0][j], r->org[1][j], r->org[2][j]);
+        float3 d = (float3)(r->dir[0][j], r->dir[1][j], r->dir[2][j]);
+        WoopRay w = leaf_ray(o, d);
+        HitRec h = { r->range[1][j], 0.0f, 0.0f, TX_MISS };
+        hl[j] = leaf_hit(TX_GEOM_ARGS, &w, o, d, r->range[0][j], first, ck, 1, &h) ? -1 : 0;
+    }
+    return (pint)(TX_LANES(hl));
+}
+
+/* One child lane s_ (s0..s3) of the wide node in bvh_any_packet: the lanes of m that enter
+ * its box test its leaf at once or push it with their mask, as bvh_any does per ray. */
+#define TX_PACKET_CHILD(s_) do { \
+    pint e_ = m & ~occ & (box_entry_packet(r, lox.s_, hix.s_, loy.s_, hiy.s_, loz.s_, hiz.s_, m & ~occ) \
+                          < INFINITY); \
+    if (any(e_)) { \
+        if (kk.s_ != 0u) { \
+            occ |= leaf_any_packet(TX_GEOM_ARGS, r, ch.s_, kk.s_, e_); \
+            if (!any(active & ~occ)) return occ; \
+        } else if (sp < TX_STACK_SIZE) {         /* full: dropped, as in bvh_any */ \
+            stack[sp] = ch.s_; stack_m[sp] = e_; ++sp; \
+        } \
+    } \
+} while (0)
+
+/* bvh_any (accel/bvh.h) for the lanes `active` of the packet: -1 where something is hit
+ * in the lane's (tmin, tmax). The callers check every active ray with ray_valid first, as
+ * bvh_any does. The same bounds as bvh_any: at most TX_STACK_SIZE entries (a push that
+ * finds the stack full is dropped), at most nnodes wide nodes entered, each with an index
+ * below nnodes (in a corrupt tree the lanes not yet hit answer 0). */
+inline pint bvh_any_packet(TX_GEOM_PARAMS, const PacketRay* r, pint active)
+{
+    pint occ = (pint)(0);
+    if (nnodes == 0u || !any(active)) return occ;
+    uint stack[TX_STACK_SIZE];
+    pint stack_m[TX_STACK_SIZE];
+    int sp = 0;
+    uint node = 0u, budget = nnodes;
+    pint m = active;
+    for (;;) {
+        if (node >= nnodes || budget-- == 0u) return occ;
+        __global const float4* nd = nodes + 8u * node;
+        float4 lox = nd[0], hix = nd[1], loy = nd[2], hiy = nd[3], loz = nd[4], hiz = nd[5];
+        uint4 ch = as_uint4(nd[6]), kk = as_uint4(nd[7]);
+        TX_PACKET_CHILD(s0);
+        TX_PACKET_CHILD(s1);
+        TX_PACKET_CHILD(s2);
+        TX_PACKET_CHILD(s3);
+        for (;;) {                               /* pop an entry with a lane still in flight */
+            if (sp == 0) return occ;
+            --sp;
+            m = stack_m[sp] & ~occ;
+            if (any(m)) break;
+        }
+        node = stack[sp];
+    }
+}
+#undef TX_PACKET_CHILD
+
+#endif

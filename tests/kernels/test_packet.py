@@ -1,0 +1,188 @@
+"""Shadow-ray packets (kernels/accel/packet.h): TX_PACKET any-hit rays traced as one give
+the scalar traversal's answers, ray for ray, bit for bit -- on coherent and incoherent
+rays, rays parallel to box faces, degenerate rays mixed into packets, rays aimed at shared
+edges and vertices, per-ray intervals, every primitive kind (the lane-by-lane path) --
+and the fused kernel's images do not depend on the packet width. The scalar any-hit is
+held to float64 references in test_traversal.py; the packet is held to it here."""
+import numpy as np
+import pytest
+import trimesh
+
+import texray as tx
+from texray.device.features import packet_width, Features
+from texray.errors import DeviceError
+from texray.renderer.trace import Tracer
+
+WIDTHS = (8, 16)
+
+
+def _tracers(monkeypatch, scene, device):
+    """{width: Tracer} for the scalar traversal (0) and each packet width."""
+    out = {}
+    for w in (0, *WIDTHS):
+        monkeypatch.setenv("TEXRAY_PACKET", str(w))
+        out[w] = Tracer(scene, device)
+        assert out[w].packet == w
+    return out
+
+
+def _assert_same(tracers, org, d, tmin=0.0, tmax=1.0):
+    ref, _ = tracers[0].occluded(org.astype(np.float32), d.astype(np.float32), tmin, tmax)
+    for w in WIDTHS:
+        got, _ = tracers[w].occluded(org.astype(np.float32), d.astype(np.float32), tmin, tmax)
+        bad = np.flatnonzero(got != ref)
+        assert bad.size == 0, f"width {w}: {bad.size} of {len(ref)} rays differ from the scalar traversal, " \
+                              f"e.g. ray {bad[:5]}"
+    return ref
+
+
+def _soup(rng, n=3000):
+    pts = rng.uniform(-1, 1, (n, 1, 3)) + rng.normal(0, 0.08, (n, 3, 3))
+    scene = tx.Scene()
+    scene.add(tx.Mesh(pts.reshape(-1, 3), np.arange(3 * n).reshape(-1, 3), name="soup"))
+    return scene
+
+
+def _shadow_bundles(rng, n_bundles, light, spread=0.01):
+    """Coherent packets as the renderer makes them: 16 origins within a small disc each,
+    toward one light (d reaches it at t = 1)."""
+    centres = rng.uniform(-1.2, 1.2, (n_bundles, 1, 3))
+    org = (centres + rng.normal(0, spread, (n_bundles, 16, 3))).reshape(-1, 3)
+    return org, np.asarray(light, np.float64) - org
+
+
+def test_packets_equal_scalar_on_coherent_and_random_rays(device, rng, monkeypatch):
+    tr = _tracers(monkeypatch, _soup(rng), device)
+    org, d = _shadow_bundles(rng, 400, (3.0, 4.0, 2.0))
+    occ = _assert_same(tr, org, d)
+    assert 0.2 < occ.mean() < 0.95, f"{occ.mean():.2f} occluded: the rays test nothing"
+    org = rng.uniform(-2.5, 2.5, (5003, 3))                 # incoherent, n not a multiple of 16
+    d = rng.uniform(-1, 1, (5003, 3)) - org
+    occ = _assert_same(tr, org, d)
+    assert 0.2 < occ.mean() < 0.95
+
+
+def test_packets_equal_scalar_on_degenerate_and_parallel_rays(device, rng, monkeypatch):
+    """Rays failing ray_valid (NaN, inf, zero or tiny directions, empty and NaN intervals)
+    inside packets with valid ones, axis-parallel directions (the exact slab re-test),
+    origins on box faces, and per-ray intervals."""
+    tr = _tracers(monkeypatch, _soup(rng, 1500), device)
+    n = 16 * 300
+    org = rng.uniform(-1.5, 1.5, (n, 3))
+    d = rng.uniform(-1, 1, (n, 3))
+    d[::7, rng.integers(0, 3)] = 0.0                          # parallel to a face
+    d[3::11, :2] = 0.0                                        # along an axis
+    org[5::13] = np.round(org[5::13], 1)                      # on round coordinates (box faces of the soup)
+    bad = np.arange(2, n, 17)
+    kinds = [np.nan, np.inf, -np.inf, 0.0, 1e-31, 1e38]
+    for i, k in zip(bad, np.resize(kinds, bad.size)):
+        if k in (0.0, 1e-31):
+            d[i] = k
+        elif k == 1e38:
+            d[i, 0] = 1e38
+        else:
+            (org if i % 2 else d)[i, i % 3] = k
+    tmin = np.where(np.arange(n) % 19 == 0, 0.5, 0.0)
+    tmax = rng.uniform(0.2, 3.0, n)
+    tmax[::23] = 0.0                                          # empty interval (tmin >= tmax)
+    tmax[1::29] = np.nan
+    ref = _assert_same(tr, org, d, tmin.astype(np.float32), tmax.astype(np.float32))
+    assert not ref[bad].any(), "an invalid ray was reported occluded"
+    assert 0.1 < ref.mean() < 0.9
+
+
+def test_packets_equal_scalar_on_rays_in_box_faces(device, monkeypatch):
+    """Rays with a zero direction component whose origin lies exactly in a box face and
+    tmin > 0: the fast slab test misses them (0 x 2^100 = 0 < tmin), the exact re-test
+    (box_entry_parallel) enters, and the unit square's edge at x = 1 is hit."""
+    scene = tx.Scene()
+    sq = np.array([[0, 0, 0.5], [1, 0, 0.5], [1, 1, 0.5], [0, 1, 0.5]], np.float64)
+    cube = trimesh.creation.box(bounds=((0, 0, 0), (1, 1, 1)))
+    scene.add(tx.Mesh(np.concatenate([sq, np.asarray(cube.vertices)]),
+                      np.concatenate([[[0, 1, 2], [0, 2, 3]], np.asarray(cube.faces) + 4]), name="cube"))
+    tr = _tracers(monkeypatch, scene, device)
+    y = np.linspace(0.05, 0.95, 64)
+    org = np.stack([np.ones_like(y), y, -np.ones_like(y)], axis=1)
+    d = np.tile([0.0, 0.0, 1.0], (len(y), 1))
+    occ = _assert_same(tr, org, d, np.float32(0.01), np.float32(10.0))
+    assert occ.all(), f"{(~occ).sum()} rays along the face x = 1 missed the square's edge"
+
+
+def test_packets_are_watertight_on_shared_edges(device, monkeypatch):
+    """Rays through the vertices and edge midpoints of a closed icosphere, from inside:
+    every one hits (scalar and packet alike), none slips between triangles."""
+    s = trimesh.creation.icosphere(subdivisions=3)
+    scene = tx.Scene()
+    scene.add(tx.Mesh(np.asarray(s.vertices), np.asarray(s.faces), name="ico"))
+    tr = _tracers(monkeypatch, scene, device)
+    v = np.asarray(s.vertices)
+    e = np.asarray(s.edges_unique)
+    targets = np.concatenate([v, 0.5 * (v[e[:, 0]] + v[e[:, 1]])])
+    org = np.zeros_like(targets) + np.array([1e-3, -2e-3, 5e-4])
+    occ = _assert_same(tr, org, 2.0 * (targets - org))
+    assert occ.all(), f"{(~occ).sum()} rays through edges or vertices escaped"
+
+
+def test_packets_test_other_kinds_lane_by_lane(device, rng, monkeypatch):
+    """Spheres, cylinders, quads, a displaced quad and instances beside triangles: leaves of
+    those kinds go through the scalar leaf_hit per lane, with the same answers."""
+    scene = tx.Scene()
+    scene.add(tx.Sphere(center=(0.6, 0.2, 0.0), radius=0.4))
+    scene.add(tx.Cylinder(radius=0.3, z_range=(-0.4, 0.4), origin=(-0.6, -0.4, 0.2), axis_z=(0, 1, 0)))
+    scene.add(tx.Quad((-1.5, -1.0, -1.5), (1.5, -1.0, -1.5), (1.5, -1.0, 1.5), (-1.5, -1.0, 1.5)))
+    h = rng.uniform(0, 1, (16, 16, 1)).astype(np.float32)
+    scene.add(tx.Quad((-1, 1, -1), (1, 1, -1), (1, 1, 1), (-1, 1, 1),
+                      material=tx.Material(displacement=tx.Displacement(tx.Texture(h, name="h"), scale=0.2))))
+    box = trimesh.creation.box(extents=(0.3, 0.3, 0.3))
+    mesh = tx.Mesh(np.asarray(box.vertices), np.asarray(box.faces), name="box")
+    for x in (-0.8, 0.0, 0.8):
+        scene.add(tx.Instance(mesh, tx.Transform(translate=(x, -0.6, -0.7))))
+    scene.add(_soup(rng, 200).objects[0])
+    tr = _tracers(monkeypatch, scene, device)
+    org, d = _shadow_bundles(rng, 300, (0.3, 3.0, 0.4), spread=0.05)
+    occ = _assert_same(tr, org, d)
+    assert 0.1 < occ.mean() < 0.95
+
+
+def test_rendered_images_do_not_depend_on_the_packet_width(device, monkeypatch):
+    """The fused kernel with packets: the same image bit for bit at every width, with spp
+    not a multiple of the width, three lights (one under the floor), smooth normals (the
+    lifted shadow origins), and adaptive sampling."""
+    scene = tx.load_scene(tx_scene("bench/textured_meshes.toml"))
+    scene.lights.append(tx.PointLight(position=(0.5, -2.0, 0.5), intensity=(5.0, 5.0, 5.0)))
+    images = {}
+    for w in (0, *WIDTHS):
+        monkeypatch.setenv("TEXRAY_PACKET", str(w))
+        a = tx.render(scene, 48, 36, 21, device=device, seed=3)
+        b = tx.render(scene, 48, 36, 24, device=device, adaptive=0.05)
+        images[w] = (a.rgb, b.rgb, b.stats["samples"])
+    for w in WIDTHS:
+        assert np.array_equal(images[w][0], images[0][0]), f"width {w}: 21 spp differs"
+        assert np.array_equal(images[w][1], images[0][1]) and images[w][2] == images[0][2], \
+            f"width {w}: adaptive differs"
+    lit = images[0][0]
+    assert lit.std() > 0.05 and np.isfinite(lit).all()
+
+
+def tx_scene(rel):
+    from conftest import ROOT
+    return ROOT / "scenes" / rel
+
+
+def test_packet_rule():
+    """Packets where they measured faster: PoCL, shadows on, triangle-only scenes."""
+    tri = Features(shadows=True, triangles=True)
+    assert packet_width(tri, "pocl") == 16
+    assert packet_width(tri, "nvidia") == 0 and packet_width(tri, "intel-cpu") == 0
+    assert packet_width(tri, None) == 0
+    assert packet_width(Features(shadows=False, triangles=True), "pocl") == 0
+    for kind in ("spheres", "cylinders", "quads", "displacement", "instances"):
+        assert packet_width(Features(triangles=True, **{kind: True}), "pocl") == 0
+
+
+def test_packet_override_is_checked(monkeypatch):
+    monkeypatch.setenv("TEXRAY_PACKET", "12")
+    with pytest.raises(DeviceError, match="TEXRAY_PACKET: expected 0, 8 or 16, got '12'"):
+        packet_width(Features(), "pocl")
+    monkeypatch.setenv("TEXRAY_PACKET", "8")
+    assert packet_width(Features(triangles=True, spheres=True), "nvidia") == 8
