@@ -84,20 +84,25 @@ def max_lights_for(n: int) -> int:
     return 0
 
 
-# Shadow-ray packets (kernels/accel/packet.h: TX_PACKET rays of a pixel's samples toward a
-# light traced as one, N lanes wide) per device kind, where they measured faster: PoCL's
-# CPU device (LLVM turns the float16 arithmetic into AVX-512 or AVX2 code). GPUs and
-# Intel's CPU runtime already spread work-items across SIMD lanes. README, Performance.
-PACKET_WIDTHS = {"pocl": 16}
+# Shadow-ray packets (kernels/accel/packet.h: the shadow rays of TX_PACKET of a pixel's
+# samples toward a light traced as one, a vector lane each) per device kind, where they
+# measured faster: PoCL's CPU device, whose LLVM turns the vector arithmetic into AVX2 or
+# AVX-512 code (8 lanes measured as fast as 16 at 16 spp, and faster at 4 and 8). GPUs and
+# Intel's CPU runtime already spread work-items across SIMD lanes. A launch summing fewer
+# than PACKET_MIN_SAMPLES samples per pixel fills too few lanes: packets measured slower at
+# 1 and 2 spp. README, Performance.
+PACKET_WIDTHS = {"pocl": 8}
+PACKET_MIN_SAMPLES = 4
 
 
-def packet_width(f: Features, device_kind: str | None) -> int:
+def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES) -> int:
     """TX_PACKET for a program of features ``f`` on a device of ``device_kind``
-    (``texray.device.opencl``'s kinds): the kind's width from :data:`PACKET_WIDTHS` for
-    scenes whose shadow rays meet only triangles, else 0 (no packets). Other kinds'
+    (``texray.device.opencl``'s kinds) whose fused launches sum ``samples`` samples per
+    pixel: the kind's width from :data:`PACKET_WIDTHS` for scenes whose shadow rays meet
+    only triangles, from PACKET_MIN_SAMPLES samples on; else 0 (no packets). Other kinds'
     leaves are tested lane by lane in a packet, which measured slower than the scalar
-    traversal (README, Performance). ``TEXRAY_PACKET`` (0, 8 or 16) overrides the rule
-    for A/B runs; the images are the same bit for bit whatever the width."""
+    traversal. ``TEXRAY_PACKET`` (0, 8 or 16) overrides the rule for A/B runs; the images
+    are the same bit for bit whatever the width."""
     override = os.environ.get("TEXRAY_PACKET")
     if override is not None and override.strip() != "":
         if override.strip() not in ("0", "8", "16"):
@@ -105,16 +110,18 @@ def packet_width(f: Features, device_kind: str | None) -> int:
         width = int(override)
     else:
         only_triangles = f.triangles and not (f.spheres or f.cylinders or f.quads or f.displacement or f.instances)
-        width = PACKET_WIDTHS.get(device_kind, 0) if only_triangles else 0
+        wanted = only_triangles and samples >= PACKET_MIN_SAMPLES
+        width = PACKET_WIDTHS.get(device_kind, 0) if wanted else 0
     return width if f.shadows else 0
 
 
-def compile_options(f: Features, device_kind: str | None = None) -> dict[str, int]:
+def compile_options(f: Features, device_kind: str | None = None,
+                    samples: int = PACKET_MIN_SAMPLES) -> dict[str, int]:
     """``-D`` definitions for the kernels: the only place feature names become macros.
-    ``device_kind`` (a Runtime's ``kind``) chooses the packet width (:func:`packet_width`);
-    None: no packets."""
+    ``device_kind`` (a Runtime's ``kind``) and ``samples`` (per pixel and fused launch)
+    choose the packet width (:func:`packet_width`); no device kind: no packets."""
     return {
-        "TX_PACKET": packet_width(f, device_kind),
+        "TX_PACKET": packet_width(f, device_kind, samples),
         "TX_TEXTURES": int(f.textures),
         "TX_VERTEX_NORMALS": int(f.vertex_normals),
         "TX_SPECULAR": int(f.specular),

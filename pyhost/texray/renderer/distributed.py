@@ -40,7 +40,7 @@ from ..device.buffers import Uploaded
 from ..errors import DeviceError, SceneError
 from .. import validate as V
 from .adaptive import BLOCK_ROWS
-from .frame import ROW_OPTIONS, device_program, render_rows
+from .frame import ROW_OPTIONS, device_program, launch_samples, render_rows
 
 TASKS_PER_WORKER = 4          # bands per worker, for balance
 MIN_BAND_SAMPLES = 1 << 18    # pixel samples per band at least: ~0.1 s on one PoCL core at 16 spp
@@ -196,7 +196,8 @@ def render_band(cs, key, camera, width, height, spp, rows, options):
     device, seed, jitter, aovs, adaptive, pipeline, local_size, memory_limit,
     tile_pixels). Returns a dict: rows, rgb, aov, samples, render_s, worker, device."""
     t0 = time.perf_counter()
-    rt, prg, local = device_program(cs, options["device"], options["local_size"])
+    rt, prg, local, _ = device_program(cs, options["device"], options["local_size"],
+                                    launch_samples(width, height, spp, options["adaptive"]))
     build_s = time.perf_counter() - t0
     out = render_rows(rt, prg, cs, camera, width, height, spp, rows, local=local, uploaded=_uploaded(rt, cs, key),
                       **{k: options[k] for k in ROW_OPTIONS})

@@ -47,13 +47,22 @@ class Rows:
     stage_s: dict = field(default_factory=dict)
 
 
-def device_program(cs, device, local_size):
-    """(runtime, program, work-group size) to render ``cs`` on ``device``: the device's
+def launch_samples(width, height, spp, adaptive=None) -> int:
+    """Samples per pixel that a fused launch sums (the packet rule's input,
+    texray.device.features.packet_width): fused_samples, within a round of adaptive sampling."""
+    n = fused_samples(width, height, spp)
+    return min(n, round_size(spp)) if adaptive is not None else n
+
+
+def device_program(cs, device, local_size, samples=0):
+    """(runtime, program, work-group size, packet width) to render ``cs`` on ``device`` with
+    fused launches of ``samples`` samples per pixel (:func:`launch_samples`): the device's
     limits checked against the scene's textures, the scene's program built (or cached)."""
     rt = runtime(device)
     if cs.texels is not None:
         check_device_limits(cs.texels.nbytes, list(cs.texture_names), rt.device.max_mem_alloc_size)
-    return rt, rt.program(compile_options(cs.features, rt.kind)), rt.local_size(local_size)
+    options = compile_options(cs.features, rt.kind, samples)
+    return rt, rt.program(options), rt.local_size(local_size), options["TX_PACKET"]
 
 
 def per_ray_bytes(cs, fused, aovs, adaptive):

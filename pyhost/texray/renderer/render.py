@@ -28,7 +28,7 @@ from ..scene import Camera, Scene
 from .. import validate as V
 from . import distributed
 from .adaptive import BLOCK_ROWS
-from .frame import PIPELINES, RAY_BYTES, ROW_OPTIONS, device_program, render_rows
+from .frame import PIPELINES, RAY_BYTES, ROW_OPTIONS, device_program, launch_samples, render_rows
 from .image import Image, check_host_memory, host_image_bytes
 
 __all__ = ["RAY_BYTES", "Setup", "prepare", "render", "render_to_file", "scene_stats", "setup"]
@@ -108,7 +108,8 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         s.stats.update(out.stats, total_s=time.perf_counter() - s.t_start)
         return Image(rgb=out.rgb, aov=out.aov, stats=s.stats)
     t_compiled = time.perf_counter()
-    rt, prg, local = device_program(s.cs, device, local_size)
+    samples = launch_samples(s.width, s.height, s.spp, s.options["adaptive"])
+    rt, prg, local, packet = device_program(s.cs, device, local_size, samples)
     t_built = time.perf_counter()
     out = render_rows(rt, prg, s.cs, s.camera, s.width, s.height, s.spp, s.rows, local=local, progress=progress,
                       sink=sink, **{k: s.options[k] for k in ROW_OPTIONS})
@@ -117,7 +118,7 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         "device": rt.device.name.strip(), "program_build_s": t_built - t_compiled,
         "render_s": t_end - t_built, "upload_s": out.upload_s, "total_s": t_end - s.t_start,
         "stage_s": out.stage_s, "tile_rows": out.tile_rows, "tiles": out.tiles, "local_size": local,
-        "ray_buffer_bytes": out.ray_buffer_bytes, "samples": out.samples,
+        "ray_buffer_bytes": out.ray_buffer_bytes, "samples": out.samples, "packet": packet,
     })
     return Image(rgb=out.rgb, aov=out.aov, stats=s.stats)
 
