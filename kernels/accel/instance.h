@@ -63,8 +63,8 @@ static int blas_traverse(TX_GEOM_PARAMS, uint root, uint inst, float4 org4, floa
                 if (node + count < node) count = 0u;                  /* wraps: a broken tree */
                 for (uint q = 0; q < count; q += 4u) {
                     float t, b1, b2;
-                    int lane = triangle_intersect4(&w, tris + node + q, TX_MIN(count - q, 4u), tmin, h->t,
-                                                   &t, &b1, &b2);
+                    int lane = triangle_intersect4(&w, tris + node + q, TX_MIN(count - q, 4u), 0u, TX_MISS,
+                                                   tmin, h->t, &t, &b1, &b2);   /* ties: the first met */
                     if (lane >= 0) {
                         h->t = t; h->b1 = b1; h->b2 = b2; h->inst = inst;
                         h->prim = (PRIM_INSTANCE << HIT_KIND_SHIFT) | ((node + q + (uint)lane) & HIT_INDEX_MASK);

@@ -1,25 +1,31 @@
 #line 2 "accel/packet.h"
-/* Packets: TX_PACKET (8 or 16) any-hit rays traced together, one per vector lane -- the
- * shadow rays of a pixel's samples toward one light (shading/shadow.h, stages/fused.cl),
- * which start within one pixel's footprint and end at one point, so they enter nearly
- * the same nodes.
+/* Packets: TX_PACKET (8 or 16) rays traced together, one per vector lane -- a pixel's
+ * samples' camera rays (closest hit) and their shadow rays toward one light (any hit,
+ * shading/shadow.h; stages/fused.cl), which start within one pixel's footprint, so they
+ * enter nearly the same nodes.
  *
- * The scalar traversal (accel/bvh.h bvh_any) tests one ray against a node's four boxes as
- * a float4; here each of the four boxes is tested against every ray of the packet as one
- * floatN, and a leaf's triangles one at a time against the whole packet
- * (triangle_any_packet), so that the node reads, the stack and the loop are shared by N
- * rays and the arithmetic runs N wide.
+ * The scalar traversals (accel/bvh.h) test one ray against a node's four boxes as a
+ * float4; here each of the four boxes is tested against every ray of the packet as one
+ * floatN, and a leaf's triangles one at a time against the whole packet, so that the node
+ * reads, the stack and the loop are shared by N rays and the arithmetic runs N wide.
  *
- * The same answers, bit for bit: every lane computes its box and triangle tests with the
- * scalar code's arithmetic (the same formulas in the same order, FP_CONTRACT OFF:
- * box_entry_packet is box4_entry's, triangle_any_packet shares geometry/triangle.h's
- * macros with triangle_intersect4), and a lane is tested against exactly the boxes and
- * leaves that the scalar traversal tests for its ray, in the same order: the stack
- * carries each entry's lane mask (the lanes that entered that box), and a lane leaves
- * the packet at its first hit, where the scalar traversal returns. Leaves of the other
- * kinds (spheres, cylinders, quads, displaced shapes, instances) are tested lane by lane
- * by the scalar leaf_hit (geometry/dispatch.h), so every kind keeps one intersector. The
- * host compiles packets in only where they measured faster (texray.device.features). */
+ * Every lane computes its box and triangle tests with the scalar code's arithmetic (the
+ * same formulas in the same order, FP_CONTRACT OFF: box_entry_packet is box4_entry's,
+ * the triangle tests share geometry/triangle.h's macros with triangle_intersect4), and
+ * the stack carries each entry's lane mask (the lanes that entered that box). So:
+ * - any hit: a lane is tested against exactly the boxes and leaves that bvh_any tests for
+ *   its ray, in the same order, and leaves the packet at its first hit: the same answers,
+ *   bit for bit;
+ * - closest hit: the packet visits children nearest first by its nearest lane, not by each
+ *   lane's own order; triangles tie on t by their index (triangle_intersect4), so a lane
+ *   ends with bvh_closest's hit bit for bit, except where two triangles' hits lie within
+ *   the box tests' rounding of each other (a ray through a shared vertex or edge): then the
+ *   order may decide which of the two (at the same t to within an ulp or two) is kept.
+ * Leaves of the other kinds (spheres, cylinders, quads, displaced shapes, instances) are
+ * tested lane by lane by the scalar leaf_hit (geometry/dispatch.h), so every kind keeps one
+ * intersector; closest-hit packets leave instanced scenes (hits carry the instance) to the
+ * scalar traversal. The host compiles packets in only where they measured faster
+ * (texray.device.features.packet_width). */
 #ifndef TEXRAY_PACKET_H
 #define TEXRAY_PACKET_H
 #include "accel/bvh.h"
@@ -28,6 +34,7 @@
 typedef float16 pfloat;
 typedef int16 pint;
 #define as_pint as_int16
+#define as_puint as_uint16
 #define as_pfloat as_float16
 #define TX_PACKET_EXACT_EDGES(U, V, W, ax, ay, bx, by, cx, cy) TX_WOOP_EXACT_EDGES(16, U, V, W, ax, ay, bx, by, cx, cy)
 #define TX_LANES(p) (p)[0], (p)[1], (p)[2], (p)[3], (p)[4], (p)[5], (p)[6], (p)[7], \
@@ -37,6 +44,7 @@ typedef int16 pint;
 typedef float8 pfloat;
 typedef int8 pint;
 #define as_pint as_int8
+#define as_puint as_uint8
 #define as_pfloat as_float8
 #define TX_PACKET_EXACT_EDGES(U, V, W, ax, ay, bx, by, cx, cy) TX_WOOP_EXACT_EDGES(8, U, V, W, ax, ay, bx, by, cx, cy)
 #define TX_LANES(p) (p)[0], (p)[1], (p)[2], (p)[3], (p)[4], (p)[5], (p)[6], (p)[7]
@@ -109,10 +117,11 @@ inline void packet_setup(PacketRay* r)
     r->rzx = sz * uzx; r->rzy = sz * uzy; r->rzz = sz * uzz;
 }
 
-/* box4_entry (accel/bvh.h) for one box and every lane: the entry distance, INFINITY for
- * a miss; lanes in m that are parallel to an axis and missed are re-tested exactly. */
+/* box4_entry (accel/bvh.h) for one box and every lane, each with its interval
+ * (r->tmin, tmax): the entry distance, INFINITY for a miss; lanes in m that are parallel to
+ * an axis and missed are re-tested exactly. */
 inline pfloat box_entry_packet(const PacketRay* r, float lox, float hix, float loy, float hiy, float loz, float hiz,
-                               pint m)
+                               pfloat tmax, pint m)
 {
     pfloat tnx = (PSEL_F(r->nx, (pfloat)(hix), (pfloat)(lox)) - r->ox) * r->ivx;
     pfloat tfx = (PSEL_F(r->nx, (pfloat)(lox), (pfloat)(hix)) - r->ox) * r->ivx;
@@ -122,20 +131,20 @@ inline pfloat box_entry_packet(const PacketRay* r, float lox, float hix, float l
     pfloat tfz = (PSEL_F(r->nz, (pfloat)(loz), (pfloat)(hiz)) - r->oz) * r->ivz;
     pfloat tn = PMAX(PMAX(tnx, tny), PMAX(tnz, r->tmin));
     pfloat tf = PMIN(PMIN(tfx, tfy), tfz) * (1.0f + 2.0f * gamma_n(3.0f));
-    tf = PMIN(tf, r->tmax);
+    tf = PMIN(tf, tmax);
     pfloat t = PSEL_F(tn <= tf, tn, (pfloat)(INFINITY));
     pint redo = m & r->par & (t == INFINITY);
     if (any(redo)) {                             /* rare: a direction component is zero */
-        float tl[TX_PACKET];
+        float tl[TX_PACKET], tl_max[TX_PACKET];
         int rl[TX_PACKET];
         PSTORE(t, tl);
         PSTORE(redo, rl);
+        PSTORE(tmax, tl_max);
         for (int j = 0; j < TX_PACKET; ++j)
             if (rl[j])
                 tl[j] = box_entry_parallel((float4)(lox, loy, loz, 0.0f), (float4)(hix, hiy, hiz, 0.0f),
                                            (float3)(r->org[0][j], r->org[1][j], r->org[2][j]),
-                                           (float3)(r->dir[0][j], r->dir[1][j], r->dir[2][j]), r->range[0][j],
-                                           r->range[1][j]);
+                                           (float3)(r->dir[0][j], r->dir[1][j], r->dir[2][j]), r->range[0][j], tl_max[j]);
         t = (pfloat)(TX_LANES(tl));
     }
     return t;
@@ -204,7 +213,7 @@ inline pint leaf_any_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint
 /* One child lane s_ (s0..s3) of the wide node in bvh_any_packet: the lanes of m that enter
  * its box test its leaf at once or push it with their mask, as bvh_any does per ray. */
 #define TX_PACKET_CHILD(s_) do { \
-    pint e_ = m & ~occ & (box_entry_packet(r, lox.s_, hix.s_, loy.s_, hiy.s_, loz.s_, hiz.s_, m & ~occ) \
+    pint e_ = m & ~occ & (box_entry_packet(r, lox.s_, hix.s_, loy.s_, hiy.s_, loz.s_, hiz.s_, r->tmax, m & ~occ) \
                           < INFINITY); \
     if (any(e_)) { \
         if (kk.s_ != 0u) { \
@@ -249,5 +258,159 @@ inline pint bvh_any_packet(TX_GEOM_PARAMS, const PacketRay* r, pint active)
     }
 }
 #undef TX_PACKET_CHILD
+
+
+/* The closest hits of a packet's lanes, as HitRec holds them: t (tmax for none), the
+ * barycentrics (or a patch's uv) and prim (TX_MISS for none). */
+typedef struct {
+    pfloat t, b1, b2;
+    pint prim;
+} PacketHit;
+
+/* triangle_intersect4's test and choice for the triangle tv (the scene's triangle `index`)
+ * and the lanes m: a lane takes the hit where t is in (tmin, h.t), or t == h.t and index is
+ * below the hit's prim -- the same tie rule, so that a lane ends with the scalar traversal's
+ * hit whatever order the packet meets the triangles in. */
+inline void triangle_closest_packet(const PacketRay* r, __global const TriVerts* tv, uint index, pint m, PacketHit* h)
+{
+    float3 a = tri_p0(tv), b = tri_p1(tv), c = tri_p2(tv);
+    pfloat Ax = a.x - r->ox, Ay = a.y - r->oy, Az = a.z - r->oz;
+    pfloat Bx = b.x - r->ox, By = b.y - r->oy, Bz = b.z - r->oz;
+    pfloat Cx = c.x - r->ox, Cy = c.y - r->oy, Cz = c.z - r->oz;
+    pfloat ax = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Ax, Ay, Az), ay = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Ax, Ay, Az);
+    pfloat bx = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Bx, By, Bz), by = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Bx, By, Bz);
+    pfloat cx = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Cx, Cy, Cz), cy = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Cx, Cy, Cz);
+    pfloat U, V, W;
+    TX_WOOP_EDGES(U, V, W, ax, ay, bx, by, cx, cy);
+#ifdef cl_khr_fp64
+    if (any(m & ((U == 0.0f) | (V == 0.0f) | (W == 0.0f))))
+        TX_PACKET_EXACT_EDGES(U, V, W, ax, ay, bx, by, cx, cy);
+#endif
+    pint ok = m & (((U >= 0.0f) & (V >= 0.0f) & (W >= 0.0f)) | ((U <= 0.0f) & (V <= 0.0f) & (W <= 0.0f)));
+    if (!any(ok)) return;
+    pfloat det = U + V + W;
+    pfloat az = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Ax, Ay, Az), bz = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Bx, By, Bz);
+    pfloat cz = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Cx, Cy, Cz);
+    pfloat T = U * az + V * bz + W * cz;
+    pfloat inv = 1.0f / det;
+    pfloat tt = T * inv;
+    pint tie = (tt == h->t) & (h->prim != (pint)(-1)) & (as_puint((pint)(index)) < as_puint(h->prim));
+    ok &= (det != 0.0f) & (tt > r->tmin) & ((tt < h->t) | tie);
+    if (!any(ok)) return;
+    pfloat delta_t;
+    TX_WOOP_DELTA_T(pfloat, delta_t, ax, ay, az, bx, by, bz, cx, cy, cz, U, V, W, inv);
+    ok &= tt > delta_t;
+    h->t = PSEL_F(ok, tt, h->t);
+    h->b1 = PSEL_F(ok, V * inv, h->b1);
+    h->b2 = PSEL_F(ok, W * inv, h->b2);
+    h->prim = PSEL_I(ok, (pint)(index), h->prim);
+}
+
+/* The leaf (first, ck) against the lanes m, nearer hits updating h: triangles one at a time
+ * against the packet; every other kind lane by lane through leaf_hit. */
+inline void leaf_closest_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint ck, pint m, PacketHit* h)
+{
+    uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
+    if (TX_TRIANGLES && kind == PRIM_TRIANGLE) {
+        uint count = end > first ? end - first : 0u;     /* as leaf_hit: no index wraps */
+        for (uint k = 0; k < count; ++k)
+            triangle_closest_packet(r, tris + first + k, first + k, m, h);
+        return;
+    }
+    float ht[TX_PACKET], hb1[TX_PACKET], hb2[TX_PACKET];
+    int hp[TX_PACKET], ml[TX_PACKET];
+    PSTORE(h->t, ht); PSTORE(h->b1, hb1); PSTORE(h->b2, hb2); PSTORE(h->prim, hp); PSTORE(m, ml);
+    for (int j = 0; j < TX_PACKET; ++j) {
+        if (!ml[j]) continue;
+        float3 o = (float3)(r->org[0][j], r->org[1][j], r->org[2][j]);
+        float3 d = (float3)(r->dir[0][j], r->dir[1][j], r->dir[2][j]);
+        WoopRay w = leaf_ray(o, d);
+        HitRec hr = { ht[j], hb1[j], hb2[j], (uint)hp[j] };
+        leaf_hit(TX_GEOM_ARGS, &w, o, d, r->range[0][j], first, ck, 0, &hr);
+        ht[j] = hr.t; hb1[j] = hr.b1; hb2[j] = hr.b2; hp[j] = (int)hr.prim;
+    }
+    h->t = (pfloat)(TX_LANES(ht)); h->b1 = (pfloat)(TX_LANES(hb1)); h->b2 = (pfloat)(TX_LANES(hb2));
+    h->prim = (pint)(TX_LANES(hp));
+}
+
+/* The smallest lane of v (the packet's nearest entry into a box: the traversal's order). */
+inline float packet_min(pfloat v)
+{
+#if TX_PACKET == 16
+    float8 v8 = TX_MIN(v.lo, v.hi);
+    float4 v4 = TX_MIN(v8.lo, v8.hi);
+#else
+    float4 v4 = TX_MIN(v.lo, v.hi);
+#endif
+    float2 v2 = TX_MIN(v4.lo, v4.hi);
+    return TX_MIN(v2.x, v2.y);
+}
+
+/* Compare-exchange of two children (packet entry, child, count_kind, lane mask, entries). */
+#define TX_PSORT2(i, j) do { if (n[j] < n[i]) { float nt_ = n[i]; n[i] = n[j]; n[j] = nt_; \
+    uint u_ = c[i]; c[i] = c[j]; c[j] = u_; u_ = k[i]; k[i] = k[j]; k[j] = u_; \
+    pint m_ = em[i]; em[i] = em[j]; em[j] = m_; pfloat e_ = et[i]; et[i] = et[j]; et[j] = e_; } } while (0)
+
+/* bvh_closest (accel/bvh.h) for the lanes `active` of the packet (rays the caller checked
+ * with ray_valid; inactive lanes answer t = tmax, prim = TX_MISS, as an invalid ray does).
+ * A node's four boxes are tested against every lane in flight; the children a lane enters
+ * are visited nearest first by the packet's nearest entry, the others pushed with the lanes
+ * that entered them and their entry distances, and a popped entry keeps only the lanes whose
+ * entry is still within their closest hit. Every lane ends with the scalar traversal's hit
+ * (see triangle_closest_packet). The same bounds as bvh_closest: at most TX_STACK_SIZE
+ * entries (a push that finds the stack full is dropped), at most nnodes wide nodes entered,
+ * each with an index below nnodes. */
+inline PacketHit bvh_closest_packet(TX_GEOM_PARAMS, const PacketRay* r, pint active)
+{
+    PacketHit h;
+    h.t = r->tmax; h.b1 = (pfloat)(0.0f); h.b2 = (pfloat)(0.0f); h.prim = (pint)(-1);
+    if (nnodes == 0u || !any(active)) return h;
+    uint stack[TX_STACK_SIZE], stack_ck[TX_STACK_SIZE];
+    pint stack_m[TX_STACK_SIZE];
+    pfloat stack_t[TX_STACK_SIZE];
+    int sp = 0;
+    uint node = 0u, ck = 0u, budget = nnodes;
+    pint m = active;
+    for (;;) {
+        if (ck != 0u) {
+            leaf_closest_packet(TX_GEOM_ARGS, r, node, ck, m, &h);
+        } else {
+            if (node >= nnodes || budget-- == 0u) return h;     /* only in a broken tree */
+            __global const float4* nd = nodes + 8u * node;
+            float4 lox = nd[0], hix = nd[1], loy = nd[2], hiy = nd[3], loz = nd[4], hiz = nd[5];
+            uint4 ch = as_uint4(nd[6]), kk = as_uint4(nd[7]);
+            pfloat et[4];
+            pint em[4];
+            float n[4];
+            uint c[4] = { ch.x, ch.y, ch.z, ch.w }, k[4] = { kk.x, kk.y, kk.z, kk.w };
+            et[0] = box_entry_packet(r, lox.s0, hix.s0, loy.s0, hiy.s0, loz.s0, hiz.s0, h.t, m);
+            et[1] = box_entry_packet(r, lox.s1, hix.s1, loy.s1, hiy.s1, loz.s1, hiz.s1, h.t, m);
+            et[2] = box_entry_packet(r, lox.s2, hix.s2, loy.s2, hiy.s2, loz.s2, hiz.s2, h.t, m);
+            et[3] = box_entry_packet(r, lox.s3, hix.s3, loy.s3, hiy.s3, loz.s3, hiz.s3, h.t, m);
+            for (int i = 0; i < 4; ++i) {
+                em[i] = m & (et[i] < INFINITY);
+                n[i] = packet_min(PSEL_F(em[i], et[i], (pfloat)(INFINITY)));
+            }
+            TX_PSORT2(0, 1); TX_PSORT2(2, 3); TX_PSORT2(0, 2); TX_PSORT2(1, 3); TX_PSORT2(1, 2);
+            if (n[0] < INFINITY) {
+                for (int i = 3; i > 0; --i) {
+                    if (n[i] < INFINITY && sp < TX_STACK_SIZE) {   /* full: dropped, as in bvh_closest */
+                        stack[sp] = c[i]; stack_ck[sp] = k[i]; stack_m[sp] = em[i]; stack_t[sp] = et[i]; ++sp;
+                    }
+                }
+                node = c[0]; ck = k[0]; m = em[0];
+                continue;
+            }
+        }
+        for (;;) {                      /* pop an entry with a lane that can still find a closer hit */
+            if (sp == 0) return h;
+            --sp;
+            m = stack_m[sp] & (stack_t[sp] <= h.t);
+            if (any(m)) break;
+        }
+        node = stack[sp]; ck = stack_ck[sp];
+    }
+}
+#undef TX_PSORT2
 
 #endif

@@ -66,7 +66,8 @@ inline int leaf_hit(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, fl
         uint count = end > first ? end - first : 0u;
         for (uint k = 0; k < count; k += 4u) {
             float b1, b2;
-            int lane = triangle_intersect4(w, tris + first + k, TX_MIN(count - k, 4u), tmin, h->t, &t, &b1, &b2);
+            int lane = triangle_intersect4(w, tris + first + k, TX_MIN(count - k, 4u), first + k, h->prim, tmin, h->t,
+                                           &t, &b1, &b2);
             if (lane >= 0) {
                 h->t = t; h->b1 = b1; h->b2 = b2; h->prim = first + k + (uint)lane;
                 if (any) return 1;

@@ -95,15 +95,18 @@ inline WoopRay woop_setup(float3 org, float3 dir)
 } while (0)
 #endif
 
-/* The triangles tr[0..n) of a leaf (n in 1..4) against the ray at once, one per float4
- * lane, so that most leaves cost one vector test and an early exit instead of n scalar
- * ones (perf, textured meshes on PoCL: the scalar test was 53% of the frame). Lanes >= n
- * repeat triangle 0 (no read past the array) and are masked out. Returns the lane of the
- * nearest hit with t in (tmin, tmax) (ties: the lowest lane, as a loop taking only a
- * strictly nearer hit would), writing t and the barycentrics b1, b2 of p1, p2
- * (P = (1 - b1 - b2) P0 + b1 P1 + b2 P2, the lecture's form); -1 for none. Degenerate
- * (zero-area) triangles and NaN inputs never hit. */
-inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, uint n,
+/* The triangles tr[0..n) of a leaf (n in 1..4), the scene's triangles index, index + 1,
+ * ..., against the ray at once, one per float4 lane, so that most leaves cost one vector
+ * test and an early exit instead of n scalar ones (perf, textured meshes on PoCL: the
+ * scalar test was 53% of the frame). Lanes >= n repeat triangle 0 (no read past the array)
+ * and are masked out. Returns the lane of the nearest hit with t in (tmin, tmax), writing
+ * t and the barycentrics b1, b2 of p1, p2 (P = (1 - b1 - b2) P0 + b1 P1 + b2 P2, the
+ * lecture's form); -1 for none. Degenerate (zero-area) triangles and NaN inputs never hit.
+ * Ties go to the lower index: among lanes, and against the closest hit so far, `best` (its
+ * prim, at t = tmax; TX_MISS for none, when the interval is open at tmax), so that the
+ * closest hit of a ray is the same whatever order a traversal meets the triangles in (a
+ * packet's, accel/packet.h, or the scalar one's). */
+inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, uint n, uint index, uint best,
                                float tmin, float tmax, float* t, float* b1, float* b2)
 {
     __global const TriVerts* t1 = tr + (n > 1u ? 1 : 0);
@@ -139,20 +142,21 @@ inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, ui
     float4 T = U * az + V * bz + W * cz;
     float4 inv = 1.0f / det;
     float4 tt = T * inv;
-    ok &= (det != 0.0f) & (tt > tmin) & (tt < tmax);     /* NaN t fails */
+    int4 tie = (tt == tmax) & (best != TX_MISS ? (uint4)(index) + (uint4)(0u, 1u, 2u, 3u) < (uint4)(best) : (int4)(0));
+    ok &= (det != 0.0f) & (tt > tmin) & ((tt < tmax) | tie);     /* NaN t fails */
     if (!any(ok)) return -1;
     float4 delta_t;
     TX_WOOP_DELTA_T(float4, delta_t, ax, ay, az, bx, by, bz, cx, cy, cz, U, V, W, inv);
     ok &= tt > delta_t;
     int lane = -1;
-    float best = tmax;
-    if (ok.s0 && tt.s0 < best) { lane = 0; best = tt.s0; }
-    if (ok.s1 && tt.s1 < best) { lane = 1; best = tt.s1; }
-    if (ok.s2 && tt.s2 < best) { lane = 2; best = tt.s2; }
-    if (ok.s3 && tt.s3 < best) { lane = 3; best = tt.s3; }
+    float near = tmax;
+    if (ok.s0) { lane = 0; near = tt.s0; }
+    if (ok.s1 && (lane < 0 || tt.s1 < near)) { lane = 1; near = tt.s1; }
+    if (ok.s2 && (lane < 0 || tt.s2 < near)) { lane = 2; near = tt.s2; }
+    if (ok.s3 && (lane < 0 || tt.s3 < near)) { lane = 3; near = tt.s3; }
     if (lane < 0) return -1;
     float4 vb1 = V * inv, vb2 = W * inv;
-    *t = best;
+    *t = near;
     *b1 = lane == 0 ? vb1.s0 : (lane == 1 ? vb1.s1 : (lane == 2 ? vb1.s2 : vb1.s3));
     *b2 = lane == 0 ? vb2.s0 : (lane == 1 ? vb2.s1 : (lane == 2 ? vb2.s2 : vb2.s3));
     return lane;

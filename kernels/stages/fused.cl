@@ -29,21 +29,51 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
     uint px = gid % image_w, py = y0 + gid / image_w;
     uint pattern = pixel_pattern(image_w, px, py, seed), grid_m = cmj_grid_m(spp);
     float3 sum = (float3)(0.0f);
-    /* Samples in chunks of TX_CHUNK: each sample's camera ray, hit and surface, then each
-     * light's shadow rays for the whole chunk (with TX_PACKET one packet traversal,
-     * accel/packet.h; else TX_CHUNK is 1 and this is the plain per-sample loop), then the
-     * samples' sums. Every sample adds the same terms in the same order either way. */
+    /* Samples in chunks of TX_CHUNK: the chunk's camera rays, hits and surfaces, then each
+     * light's shadow rays for the whole chunk, then the samples' sums. With TX_PACKET the
+     * camera rays and each light's shadow rays are one packet traversal each
+     * (accel/packet.h); else TX_CHUNK is 1 and this is the plain per-sample loop. Every
+     * sample adds the same terms in the same order either way. */
     for (uint k0 = 0; k0 < nsamples; k0 += TX_CHUNK) {
         uint m = TX_MIN(nsamples - k0, (uint)TX_CHUNK);
         Surface s[TX_CHUNK];
         float3 v[TX_CHUNK], c[TX_CHUNK], sorg[TX_CHUNK];
         int lifted[TX_CHUNK];
         uchar vis[TX_CHUNK];
+#if TX_PACKET && !TX_INSTANCES
+        /* the chunk's camera rays, then their closest hits as one packet (accel/packet.h) */
+        PacketRay pr;
+        int act[TX_CHUNK];
+        float3 rorg[TX_CHUNK], rdir[TX_CHUNK];      /* the rays (an invalid one is traced as none) */
+        for (uint j = 0; j < (uint)TX_CHUNK; ++j) {
+            float3 org = (float3)(0.0f), dir = (float3)(0.0f, 0.0f, 1.0f);   /* lanes not traced */
+            act[j] = 0;
+            if (j < m) {
+                float2 jit = jitter ? cmj_sample_m(sample0 + k0 + j, spp, grid_m, pattern) : (float2)(0.5f, 0.5f);
+                float3 o, d;
+                camera_ray(cam, image_w, image_h, px, py, jit, &o, &d);
+                rorg[j] = o; rdir[j] = d;
+                if (ray_valid(o, d, 0.0f, INFINITY)) { org = o; dir = d; act[j] = -1; }
+            }
+            pr.org[0][j] = org.x; pr.org[1][j] = org.y; pr.org[2][j] = org.z;
+            pr.dir[0][j] = dir.x; pr.dir[1][j] = dir.y; pr.dir[2][j] = dir.z;
+            pr.range[0][j] = 0.0f; pr.range[1][j] = INFINITY;
+        }
+        packet_setup(&pr);
+        PacketHit ph = bvh_closest_packet(TX_GEOM_ARGS, &pr, (pint)(TX_LANES(act)));
+        float ht[TX_CHUNK], hb1[TX_CHUNK], hb2[TX_CHUNK];
+        int hp[TX_CHUNK];
+        PSTORE(ph.t, ht); PSTORE(ph.b1, hb1); PSTORE(ph.b2, hb2); PSTORE(ph.prim, hp);
+        for (uint j = 0; j < m; ++j) {
+            float3 org = rorg[j], dir = rdir[j];
+            HitRec h = { ht[j], hb1[j], hb2[j], (uint)hp[j] };
+#else
         for (uint j = 0; j < m; ++j) {
             float2 jit = jitter ? cmj_sample_m(sample0 + k0 + j, spp, grid_m, pattern) : (float2)(0.5f, 0.5f);
             float3 org, dir;
             camera_ray(cam, image_w, image_h, px, py, jit, &org, &dir);
             HitRec h = bvh_closest(TX_GEOM_ARGS, org, dir, 0.0f, INFINITY);
+#endif
             surface_eval(org, dir, h, TX_GEOM_ARGS, TX_SURFACE_ARGS, (__global float*)0, gid, s + j);
             c[j] = background.xyz;
             if (s[j].valid) {

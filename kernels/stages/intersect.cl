@@ -25,32 +25,59 @@ __kernel void occluded(__global const Ray* rays, __global uchar* out, uint n, TX
 }
 
 #if TX_PACKET
-/* `occluded` with TX_PACKET consecutive rays per work-item traced as one packet
- * (accel/packet.h): the same answers, bit for bit; how the tests and the benchmark see
- * the packet traversal alone. Rays that fail ray_valid answer 0 untraced, as in bvh_any. */
+/* Rays base .. base + TX_PACKET - 1 (those below n) of the buffer as a packet; act[j]: the
+ * lanes to trace, the rays that pass ray_valid (the others answer a miss untraced, as in
+ * bvh_closest and bvh_any). */
+inline void packet_of_rays(__global const Ray* rays, uint base, uint n, PacketRay* r, int* act)
+{
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        float3 o = (float3)(0.0f), d = (float3)(0.0f, 0.0f, 1.0f);    /* lanes not traced: any valid ray */
+        float t0 = 0.0f, t1 = INFINITY;
+        act[j] = 0;
+        if (j < n - base) {
+            __global const Ray* ry = rays + base + j;
+            t1 = ry->tmax;                     /* a missed lane's t, as bvh_closest answers */
+            if (ray_valid(ray_org(ry), ray_dir(ry), ry->tmin, ry->tmax)) {
+                o = ray_org(ry); d = ray_dir(ry); t0 = ry->tmin; act[j] = -1;
+            }
+        }
+        r->org[0][j] = o.x; r->org[1][j] = o.y; r->org[2][j] = o.z;
+        r->dir[0][j] = d.x; r->dir[1][j] = d.y; r->dir[2][j] = d.z;
+        r->range[0][j] = t0; r->range[1][j] = t1;
+    }
+    packet_setup(r);
+}
+
+/* `occluded` and `intersect` with TX_PACKET consecutive rays per work-item traced as one
+ * packet (accel/packet.h): the same answers, bit for bit; how the tests and the benchmark
+ * see the packet traversals alone. */
 __kernel void occluded_packet(__global const Ray* rays, __global uchar* out, uint n, TX_GEOM_PARAMS)
 {
     uint base = get_global_id(0) * (uint)TX_PACKET;
     if (base >= n) return;
     PacketRay r;
     int act[TX_PACKET], occ[TX_PACKET];
-    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
-        float3 o = (float3)(0.0f), d = (float3)(0.0f, 0.0f, 1.0f);    /* lanes not traced: any valid ray */
-        float t0 = 0.0f, t1 = 1.0f;
-        act[j] = 0;
-        if (j < n - base) {
-            __global const Ray* ry = rays + base + j;
-            if (ray_valid(ray_org(ry), ray_dir(ry), ry->tmin, ry->tmax)) {
-                o = ray_org(ry); d = ray_dir(ry); t0 = ry->tmin; t1 = ry->tmax; act[j] = -1;
-            }
-        }
-        r.org[0][j] = o.x; r.org[1][j] = o.y; r.org[2][j] = o.z;
-        r.dir[0][j] = d.x; r.dir[1][j] = d.y; r.dir[2][j] = d.z;
-        r.range[0][j] = t0; r.range[1][j] = t1;
-    }
-    packet_setup(&r);
+    packet_of_rays(rays, base, n, &r, act);
     PSTORE(bvh_any_packet(TX_GEOM_ARGS, &r, (pint)(TX_LANES(act))), occ);
     for (uint j = 0; j < (uint)TX_PACKET && j < n - base; ++j)
         out[base + j] = act[j] && occ[j];
 }
+
+#if !TX_INSTANCES
+__kernel void intersect_packet(__global const Ray* rays, __global Hit* hits, uint n, TX_GEOM_PARAMS)
+{
+    uint base = get_global_id(0) * (uint)TX_PACKET;
+    if (base >= n) return;
+    PacketRay r;
+    int act[TX_PACKET], hp[TX_PACKET];
+    float ht[TX_PACKET], hb1[TX_PACKET], hb2[TX_PACKET];
+    packet_of_rays(rays, base, n, &r, act);
+    PacketHit h = bvh_closest_packet(TX_GEOM_ARGS, &r, (pint)(TX_LANES(act)));
+    PSTORE(h.t, ht); PSTORE(h.b1, hb1); PSTORE(h.b2, hb2); PSTORE(h.prim, hp);
+    for (uint j = 0; j < (uint)TX_PACKET && j < n - base; ++j) {
+        __global Hit* o = hits + base + j;
+        o->t = ht[j]; o->b1 = hb1[j]; o->b2 = hb2[j]; o->prim = (uint)hp[j];
+    }
+}
+#endif
 #endif

@@ -61,10 +61,10 @@ def test_every_device_renders_the_cpu_image(scenes_dir, path):
 
 @pytest.mark.skipif(len(PORTABILITY_DEVICES) < 2 or not any(d.type == "cpu" for d in PORTABILITY_DEVICES),
                     reason="needs a CPU and another OpenCL device to compare")
-def test_shadow_ray_packets_on_every_device(scenes_dir, monkeypatch):
-    """The packet traversal (kernels/accel/packet.h), which the rule compiles in on PoCL
-    only, forced on every device: the image equals the scalar traversal's on the same
-    device bit for bit, and agrees with the CPU's; Oclgrind checks its memory accesses."""
+def test_ray_packets_on_every_device(scenes_dir, monkeypatch):
+    """The packet traversals (kernels/accel/packet.h), which the rule compiles in on PoCL
+    only, forced on every device: the image equals the scalar traversals' on the same
+    device bit for bit, and agrees with the CPU's; Oclgrind checks their memory accesses."""
     scene = tx.Scene.load(scenes_dir / "bench/textured_meshes.toml")
     cpu = next(d for d in PORTABILITY_DEVICES if d.type == "cpu")
     monkeypatch.setenv("TEXRAY_PACKET", "0")

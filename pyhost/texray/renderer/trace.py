@@ -37,10 +37,12 @@ class Tracer:
         options = compile_options(dataclasses.replace(cs.features, shadows=True), self.rt.kind)
         self.program = self.rt.program(options)
         self.up = Uploaded(self.rt.context, cs)
-        self._k_closest = cl.Kernel(self.program, "intersect")
-        # any hit: packets of `packet` rays per work-item where the program has them (as the
-        # renderer's shadow rays on this device, texray.device.features.packet_width)
+        # packets of `packet` rays per work-item where the program has them, as the renderer's
+        # camera and shadow rays on this device (texray.device.features.packet_width)
         self.packet = options["TX_PACKET"]
+        closest_packet = self.packet and not cs.features.instances
+        self._k_closest = cl.Kernel(self.program, "intersect_packet" if closest_packet else "intersect")
+        self._closest_items = self.packet if closest_packet else 1
         self._k_any = cl.Kernel(self.program, "occluded_packet" if self.packet else "occluded")
 
     def _rays(self, org, dirs, tmin, tmax):
@@ -56,7 +58,8 @@ class Tracer:
         out = np.zeros(n, layout.HIT)
         hits = cl.Buffer(self.rt.context, cl.mem_flags.WRITE_ONLY,   # intersect.cl: 2n records with instances
                          max(out.nbytes * (2 if self.up.features.instances else 1), 16))
-        ev = self._k_closest(self.rt.queue, (n,), None, rays, hits, np.uint32(n), *self.up.geom)
+        items = -(-n // self._closest_items)
+        ev = self._k_closest(self.rt.queue, (items,), None, rays, hits, np.uint32(n), *self.up.geom)
         cl.enqueue_copy(self.rt.queue, out, hits, wait_for=[ev])
         prim = out["prim"].astype(np.int64)
         prim[out["prim"] == 0xFFFFFFFF] = -1
