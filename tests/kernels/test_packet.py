@@ -193,16 +193,15 @@ def tx_scene(rel):
 
 
 def test_packet_rule():
-    """Packets where they measured faster: PoCL, shadows on, triangle-only scenes, launches of
-    at least PACKET_MIN_SAMPLES samples per pixel."""
+    """Packets where they measured faster: PoCL, shadows on, launches of at least
+    PACKET_MIN_SAMPLES samples per pixel."""
     tri = Features(shadows=True, triangles=True)
     assert packet_width(tri, "pocl", 16) == 8 and packet_width(tri, "pocl", 4) == 8
     assert packet_width(tri, "pocl", 3) == 0 and packet_width(tri, "pocl", 1) == 0
     assert packet_width(tri, "nvidia", 16) == 0 and packet_width(tri, "intel-cpu", 16) == 0
     assert packet_width(tri, None, 16) == 0
     assert packet_width(Features(shadows=False, triangles=True), "pocl", 16) == 0
-    for kind in ("spheres", "cylinders", "quads", "displacement", "instances"):
-        assert packet_width(Features(triangles=True, **{kind: True}), "pocl", 16) == 0
+    assert packet_width(Features.generic(), "pocl", 16) == 8
 
 
 def test_renders_choose_packets_by_samples_per_launch(device, monkeypatch):
@@ -217,7 +216,8 @@ def test_renders_choose_packets_by_samples_per_launch(device, monkeypatch):
     width = {"pocl": 8}.get(runtime(device).kind, 0)
     assert [tx.render(scene, 16, 12, spp, device=device).stats["packet"] for spp in (1, 4, 16)] == [0, width, width]
     assert tx.render(scene, 16, 12, 64, device=device, adaptive=0.1).stats["packet"] == width
-    assert tx.render(tx.load_scene(tx_scene("bench/globe.toml")), 16, 12, 16, device=device).stats["packet"] == 0
+    assert tx.render(tx.load_scene(tx_scene("bench/globe.toml")), 16, 12, 16, device=device).stats["packet"] == width
+    assert tx.render(scene, 16, 12, 16, device=device, shadows=False).stats["packet"] == 0
 
 
 def test_packet_override_is_checked(monkeypatch):

@@ -84,13 +84,14 @@ def max_lights_for(n: int) -> int:
     return 0
 
 
-# Shadow-ray packets (kernels/accel/packet.h: the shadow rays of TX_PACKET of a pixel's
-# samples toward a light traced as one, a vector lane each) per device kind, where they
-# measured faster: PoCL's CPU device, whose LLVM turns the vector arithmetic into AVX2 or
-# AVX-512 code (8 lanes measured as fast as 16 at 16 spp, and faster at 4 and 8). GPUs and
-# Intel's CPU runtime already spread work-items across SIMD lanes. A launch summing fewer
-# than PACKET_MIN_SAMPLES samples per pixel fills too few lanes: packets measured slower at
-# 1 and 2 spp. README, Performance.
+# Ray packets (kernels/accel/packet.h: the camera rays of TX_PACKET of a pixel's samples,
+# and their shadow rays toward each light, traced as one, a vector lane each) per device
+# kind, where they measured faster: PoCL's CPU device, whose LLVM turns the vector
+# arithmetic into AVX2 or AVX-512 code. 8 lanes measured as fast as 16 at 16 spp and faster
+# at 4 and 8; every scene kind gained at 16 spp (the bench scenes, the showcase, instances:
+# 0.5-0.97 of the scalar frame; README, Performance). A launch summing fewer than
+# PACKET_MIN_SAMPLES samples per pixel fills too few lanes: packets measured slower at 1 and
+# 2 spp. GPUs and Intel's CPU runtime already spread work-items across SIMD lanes.
 PACKET_WIDTHS = {"pocl": 8}
 PACKET_MIN_SAMPLES = 4
 
@@ -98,20 +99,17 @@ PACKET_MIN_SAMPLES = 4
 def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES) -> int:
     """TX_PACKET for a program of features ``f`` on a device of ``device_kind``
     (``texray.device.opencl``'s kinds) whose fused launches sum ``samples`` samples per
-    pixel: the kind's width from :data:`PACKET_WIDTHS` for scenes whose shadow rays meet
-    only triangles, from PACKET_MIN_SAMPLES samples on; else 0 (no packets). Other kinds'
-    leaves are tested lane by lane in a packet, which measured slower than the scalar
-    traversal. ``TEXRAY_PACKET`` (0, 8 or 16) overrides the rule for A/B runs; the images
-    are the same bit for bit whatever the width."""
+    pixel: the kind's width from :data:`PACKET_WIDTHS` from PACKET_MIN_SAMPLES samples on,
+    with shadow rays; else 0 (no packets). ``TEXRAY_PACKET`` (0, 8 or 16) overrides the rule
+    for A/B runs. The images are the same whatever the width (accel/packet.h says when a
+    closest hit may differ: within rounding of another hit; no scene's image did)."""
     override = os.environ.get("TEXRAY_PACKET")
     if override is not None and override.strip() != "":
         if override.strip() not in ("0", "8", "16"):
             raise DeviceError(f"TEXRAY_PACKET: expected 0, 8 or 16, got {override!r}")
         width = int(override)
     else:
-        only_triangles = f.triangles and not (f.spheres or f.cylinders or f.quads or f.displacement or f.instances)
-        wanted = only_triangles and samples >= PACKET_MIN_SAMPLES
-        width = PACKET_WIDTHS.get(device_kind, 0) if wanted else 0
+        width = PACKET_WIDTHS.get(device_kind, 0) if samples >= PACKET_MIN_SAMPLES else 0
     return width if f.shadows else 0
 
 
