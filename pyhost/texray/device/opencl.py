@@ -41,8 +41,13 @@ from . import buffers, layout
 
 
 def _kernel_dir() -> Path:
-    """Where the .cl sources are: the installed package ``texray.kernels``, or
-    the repository's ``kernels/`` when running from a source tree."""
+    """Where the .cl sources are: the repository's ``kernels/`` when this package is
+    imported from a source tree (whichever checkout it is: a git worktree beside an
+    editable install must not build another tree's kernels), else the installed package
+    ``texray.kernels``."""
+    repo = Path(__file__).resolve().parents[3] / "kernels"
+    if (repo / "texray.cl").is_file():
+        return repo
     try:
         spec = importlib.util.find_spec("texray.kernels")
     except ImportError:
@@ -51,9 +56,6 @@ def _kernel_dir() -> Path:
         for loc in spec.submodule_search_locations:
             if (Path(loc) / "texray.cl").is_file():
                 return Path(loc)
-    repo = Path(__file__).resolve().parents[3] / "kernels"
-    if (repo / "texray.cl").is_file():
-        return repo
     raise DeviceError("texray's OpenCL sources (texray.cl) were not found: the installation is incomplete")
 
 
