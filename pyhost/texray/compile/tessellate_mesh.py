@@ -30,11 +30,13 @@ MAX_LEVEL = 256                    # lattice cuts per edge at most (256^2 = 6553
 MAX_TRIANGLES = 1 << 24            # the tessellation's size at most: a clear error instead of an exhausted host
 
 
-def tessellate_mesh(mesh, resolution=None) -> Mesh:
+def tessellate_mesh(mesh, resolution=None, methods=("tessellate",)) -> Mesh:
     """The displaced surface of ``mesh`` as a new Mesh in world space (see the module
-    docstring); faces whose material is not displaced are kept as they are (level 1
-    unless a displaced neighbour refines their shared edge). ``resolution``: the cuts
-    per texel, instead of each Displacement's own."""
+    docstring); faces whose material is not displaced (by one of ``methods``) are kept as
+    they are (level 1 unless a displaced neighbour refines their shared edge).
+    ``resolution``: the cuts per texel, instead of each Displacement's own. ``methods``:
+    ("search",) tessellates a mesh whose search shells would not bound its surface
+    (texray.compile.shells)."""
     where = f"{mesh.name}: "
     if mesh.mapping is not None:
         raise SceneError(f"{where}mapping: a displaced mesh is tessellated from its own uvs; a projection "
@@ -50,7 +52,7 @@ def tessellate_mesh(mesh, resolution=None) -> Mesh:
     uv = np.asarray(mesh.uvs, np.float64)
     mats = mesh.materials
     fmat = mesh.face_materials()
-    disp = [m.displacement if m.displacement is not None and m.displacement.method == "tessellate" else None
+    disp = [m.displacement if m.displacement is not None and m.displacement.method in methods else None
             for m in mats]
     if n is None:
         n = _vertex_normals(p, f)
