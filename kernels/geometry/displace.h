@@ -183,8 +183,10 @@ inline float2 disp_inverse_bilinear(const DispFrame* f, float3 q)
 #define TX_DISP_TRI_BAND 2.44140625e-4f
 /* Newton steps on the cubic of disp_tri_local: from the linearized root, the error
  * squares each step (relative error ~ |h| |dN| / |E|, 0.1 for a coarse torus): four take
- * it below float32 rounding. */
+ * it below float32 rounding. They stop early once a step is below 2^-24 |h|, half an ulp
+ * of h (at once where the vertex normals are equal: the cubic is then linear). */
 #define TX_DISP_TRI_NEWTON 4
+#define TX_DISP_TRI_NEWTON_TOL 5.9604645e-08f
 
 /* (b1, b2, h) of the point q (relative to P0) in a mesh triangle's shell: q - h N0 =
  * b1 (E1 + h dN1) + b2 (E2 + h dN2), so (q - h N0) . ((E1 + h dN1) x (E2 + h dN2)) = 0,
@@ -197,7 +199,9 @@ inline float3 disp_tri_local(const DispFrame* f, float3 q)
     float h = -a0 / a1;
     for (int k = 0; k < TX_DISP_TRI_NEWTON; ++k) {
         float p = ((a3 * h + a2) * h + a1) * h + a0, dp = (3.0f * a3 * h + 2.0f * a2) * h + a1;
-        h -= p / dp;
+        float step = p / dp;
+        h -= step;
+        if (!(fabs(step) > TX_DISP_TRI_NEWTON_TOL * fabs(h))) break;
     }
     float3 u = f->e0 + h * f->dn1, v = f->e1 + h * f->dn2, w = q - h * f->n, c = cross3(u, v);
     float inv = 1.0f / dot3(c, c);
@@ -411,6 +415,26 @@ inline int disp_tri_clip(__global const Displaced* d, const DispFrame* f, float 
 }
 #endif
 
+#if TX_DISP_MESH
+/* A shell's share of the search's N samples: N is the sample density of the quad's search,
+ * N samples over the height field's whole range [hmin, hmax] along the normal, and a shell
+ * takes the fraction of them that its segment spans: the smaller of its thickness
+ * (shi - slo) / (hmax - hmin) and its segment's length against the quad's whole path
+ * (hmax - hmin) / (|dir| cos), cos the largest over its vertex normals and face normal (the
+ * most samples where the surface curves). A ray crossing k shells then takes about N
+ * samples in all, as over a quad, not k N; at least 1 step (both ends). */
+inline uint disp_tri_steps(const DispFrame* f, float3 dir, float A, float B, uint steps)
+{
+    float3 nv1 = f->n + f->dn1, nv2 = f->n + f->dn2;
+    float c = TX_MAX(TX_MAX(fabs(dot3(f->n, dir)), fabs(dot3(nv1, dir)) * rsqrt(dot3(nv1, nv1))),
+                     TX_MAX(fabs(dot3(nv2, dir)) * rsqrt(dot3(nv2, nv2)), fabs(dot3(f->c0, dir)) * rsqrt(dot3(f->c0, f->c0))));
+    float range = f->hmax - f->hmin;
+    float share = TX_MIN((f->shi - f->slo) / range, (B - A) * c / range);
+    if (!(share < 1.0f)) return steps;                 /* also NaN: a flat field (range 0) */
+    return clamp((uint)ceil((float)steps * share), 1u, steps);
+}
+#endif
+
 /* The lecture's search on [A, B] (header comment). Samples where the primitive has
  * no surface (outside the (u, v) domain, e.g. [A, B]'s ends rounded just past the
  * quad's edge, or a partial cylinder's gap) are skipped: they neither start nor end
@@ -595,6 +619,9 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
             float cosv = fabs(dot3(nrm, dir)) * rsqrt(dot3(nrm, nrm) * dot3(dir, dir));
             steps = (uint)ceil((float)steps / TX_MAX(cosv, 0.125f));   /* NaN cos -> 8 N */
         }
+#if TX_DISP_MESH
+        if (f.shape == DISP_TRIANGLE) steps = disp_tri_steps(&f, dir, A, B, steps);
+#endif
         hit = disp_search(hts, &f, A, B, steps, TX_MIN(d->refine, TX_DISP_MAX_REFINE), any, from_outside, t, uv);
     }
     return hit && *t > tmin && *t < tmax;
