@@ -256,7 +256,7 @@ def test_footprint_bounds_hold_the_interpolant(rng):
     from texray.scene.heightfield import height
     lo_uv = rng.uniform(-1.5, 1.5, (300, 2))
     hi_uv = lo_uv + rng.uniform(0, 0.1, (300, 2))
-    lo, hi = S.footprint_bounds(S._world_pyramid(d), lo_uv, hi_uv, (32, 32), "repeat")
+    lo, hi = S.footprint_bounds(S.world_pyramid(d), lo_uv, hi_uv, (32, 32), "repeat")
     s = rng.random((300, 400, 2))
     uv = lo_uv[:, None] + s * (hi_uv - lo_uv)[:, None]
     hmin, hmax = d.bounds()

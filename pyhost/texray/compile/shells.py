@@ -30,7 +30,7 @@ import numpy as np
 from ..device import layout
 from ..errors import SceneError
 from .heights import METHOD_ADAPTIVE, METHOD_IDS, height_key, minmax_pyramid, quantize
-from .tessellate_mesh import _unit, _vertex_normals
+from .tessellate_mesh import unit_rows, vertex_normals
 
 # The kernels' TX_DISP_TRI_BAND: how far beyond its edges (in barycentrics) a triangle's
 # surface is still evaluated; each footprint is widened by as much.
@@ -79,7 +79,7 @@ def prepare(mesh) -> Shells:
     p, n = mesh.world()
     p = np.asarray(p, np.float64)
     f = np.asarray(mesh.faces, np.int64)
-    n = _vertex_normals(p, f) if n is None else _unit(np.asarray(n, np.float64))
+    n = vertex_normals(p, f) if n is None else unit_rows(np.asarray(n, np.float64))
     uv = np.asarray(mesh.uvs, np.float64)
     fmat = mesh.face_materials()
     face = np.flatnonzero(searched_faces(mesh))
@@ -101,7 +101,7 @@ def prepare(mesh) -> Shells:
         d = m.displacement
         key = height_key(d)
         if key not in pyramids:
-            pyramids[key] = _world_pyramid(d)
+            pyramids[key] = world_pyramid(d)
         t = UV[sel]
         spread = BAND * (np.abs(t[:, 1] - t[:, 0]) + np.abs(t[:, 2] - t[:, 0]))
         slo[sel], shi[sel] = footprint_bounds(pyramids[key], t.min(axis=1) - spread, t.max(axis=1) + spread,
@@ -115,7 +115,7 @@ def prepare(mesh) -> Shells:
     return Shells(mesh, P, N, UV, fmat[face], face, slo, shi, edges)
 
 
-def _world_pyramid(d):
+def world_pyramid(d):
     """The min-max pyramid of d's stored (quantized) heights in world units, float64:
     what the device's interpolant lies within (texray.compile.heights.pack_heights)."""
     hmin, hmax = d.bounds()
