@@ -46,7 +46,8 @@
  * one over the whole prism (at h = 0: every vertex normal within 86 degrees of the face
  * normal), so that the coordinates are unique and the five faces bound the shell
  * (texray.compile.shells; a mesh with a triangle that fails is tessellated instead). The
- * search is the one below on the shell's entry..exit segment; samples within
+ * search is the one below on the shell's entry..exit segment, with the shell's share of
+ * the N samples (disp_tri_steps); samples within
  * TX_DISP_TRI_BAND of the triangle's edges are evaluated on the extended triangle, so
  * that the segment's ends, which lie on the side patches up to rounding, always count:
  * a crossing in the shell then lies between two evaluated samples of opposite sign, and
