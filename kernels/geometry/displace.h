@@ -361,7 +361,8 @@ inline int disp_tri_in_shell(const DispFrame* f, float3 q, float hlo, float hhi)
  * both); the sides are the bilinear patches between corners k, k + 1 (quad.h), each met
  * at most twice. A crossing count of the wrong parity (a crossing lost to rounding, or
  * one more in the band) takes the corners' box instead, which holds the shell:
- * conservative.
+ * conservative; it returns 2 then, and the search takes all N samples over the box's
+ * segment (its ends lie outside the shell, where f is not evaluated).
  * *from_outside: the ray entered through the bottom, the top or a side on the mesh's
  * border (not through a side shared with a neighbour's shell, Displaced.edges). */
 inline int disp_tri_clip(__global const Displaced* d, const DispFrame* f, float tmin, float tmax, float* A, float* B,
@@ -405,7 +406,7 @@ inline int disp_tri_clip(__global const Displaced* d, const DispFrame* f, float 
     if ((n + in0 + in1) & 1) {
         *A = tn; *B = tf;
         *from_outside = tn > tmin;
-        return 1;
+        return 2;
     }
     if (in0) { ta = tmin; entry = -1; }
     if (in1) tb = tmax;
@@ -594,10 +595,12 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
 {
     DispFrame f = disp_frame(d, org, dir);
     float A, B;
-    int from_outside;
+    int from_outside, boxed = 0;
 #if TX_DISP_MESH
     if (f.shape == DISP_TRIANGLE) {
-        if (!disp_tri_clip(d, &f, tmin, tmax, &A, &B, &from_outside)) return 0;
+        int clip = disp_tri_clip(d, &f, tmin, tmax, &A, &B, &from_outside);
+        if (!clip) return 0;
+        boxed = clip == 2;
     } else
 #endif
     {
@@ -621,7 +624,7 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
             steps = (uint)ceil((float)steps / TX_MAX(cosv, 0.125f));   /* NaN cos -> 8 N */
         }
 #if TX_DISP_MESH
-        if (f.shape == DISP_TRIANGLE) steps = disp_tri_steps(&f, dir, A, B, steps);
+        if (f.shape == DISP_TRIANGLE && !boxed) steps = disp_tri_steps(&f, dir, A, B, steps);
 #endif
         hit = disp_search(hts, &f, A, B, steps, TX_MIN(d->refine, TX_DISP_MAX_REFINE), any, from_outside, t, uv);
     }
