@@ -243,8 +243,12 @@ def test_refusals_and_conservative_fallbacks(rng):
     pts = np.concatenate([P, [[0.5, 0, -0.5]]])                 # on the diagonal P0 P2
     sliver = tx.Mesh(pts, np.array([[0, 1, 2], [0, 2, 3], [0, 4, 2]]), uvs=np.concatenate([UV, [[0.75, 0.75]]]),
                      normals=np.tile([0, 1.0, 0], (5, 1)), material=tx.Material(displacement=d), name="sliver")
-    cs = compile_scene(_scene(sliver))
+    with pytest.warns(UserWarning, match=r"sliver: 1 zero-area triangle\(s\) skipped \(faces \[2\]\)"):
+        cs = compile_scene(_scene(sliver))
     assert len(cs.displaced) == 2 and sorted(cs.displaced["prim"]) == [0, 1]
+    with pytest.raises(tx.SceneError, match="flat0: faces: all 1 displaced triangles have zero area"):
+        compile_scene(_scene(tx.Mesh(pts, np.array([[0, 4, 2]]), uvs=sliver.uvs, material=sliver.material,
+                                     name="flat0")))
     img = tx.render(_scene(sliver, lights=[tx.PointLight((0, 3, 0), (9, 9, 9))]), 32, 24, 1, cache=False)
     assert np.all(np.isfinite(img.rgb))
     # vertex normals 88 degrees off the face normal: no true bound, tessellated with a warning

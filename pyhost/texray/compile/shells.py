@@ -29,6 +29,7 @@ import numpy as np
 
 from ..device import layout
 from ..errors import SceneError
+from ..scene.mesh import warn_degenerate
 from .heights import METHOD_ADAPTIVE, METHOD_IDS, height_key, minmax_pyramid, quantize
 from .tessellate_mesh import unit_rows, vertex_normals
 
@@ -85,8 +86,10 @@ def prepare(mesh) -> Shells:
     face = np.flatnonzero(searched_faces(mesh))
     fs = f[face].copy()
     c0 = np.cross(p[fs[:, 1]] - p[fs[:, 0]], p[fs[:, 2]] - p[fs[:, 0]])
-    area = np.linalg.norm(c0, axis=1)
-    keep = area > 0
+    keep = np.linalg.norm(c0, axis=1) > 0
+    if len(face) and not keep.any():
+        raise SceneError(f"{where}faces: all {len(face)} displaced triangles have zero area; nothing to render")
+    warn_degenerate(mesh.name, np.isin(np.arange(len(f)), face[~keep]))
     face, fs, c0 = face[keep], fs[keep], c0[keep]
     turn = np.einsum("fj,fkj->f", c0, n[fs]) < 0           # normals against the winding
     fs[turn] = fs[turn][:, [0, 2, 1]]
