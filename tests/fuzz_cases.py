@@ -966,8 +966,8 @@ def _valid_material(ch, L, kind, parallelogram=False, mapped=False, planar_conve
                                     ["search"] if planar_convex else [])
         if kind != "quad":
             methods.remove("maxmip")
-        if kind == "mesh":                         # texray.compile.tessellate_mesh
-            methods = ["tessellate"]
+        if kind == "mesh":                         # texray.compile.tessellate_mesh, .shells
+            methods = ["tessellate", "search"]
         method = ch.choice(methods)
         hkind = ch.choice(["bricks_height", "noise"])
         htex = L.var("height", call("tx.Texture.procedural", hkind, size=ch.choice([8, 16, 32]),

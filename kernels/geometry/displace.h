@@ -33,6 +33,27 @@
  *     exactly. Conservative: a cell is only skipped when it cannot hold a root, so
  *     no spike is missed whatever its width. Parallelogram quads only (u, v, h affine
  *     in t); the host refuses it elsewhere.
+ *
+ * DISP_TRIANGLE (TX_DISP_MESH): one triangle of a displaced mesh, the surface
+ * S = P(b1, b2) + H N(b1, b2) with P and N interpolated linearly from the corners and
+ * the vertex normals (N not renormalized), H read at the interpolated texture uv. Its
+ * volume is the prism shell {P(b) + h N(b): b in the triangle, h in [slo, shi]} (the
+ * triangle's bound of H from the min-max pyramid over its uv footprint): bottom and top
+ * are the flat triangles P_i + h N_i at h = slo, shi, the three sides bilinear patches
+ * (quad.h's intersector). A point q has (b1, b2, h) where q - P0 - h N0 lies in the plane
+ * of E1 + h dN1 and E2 + h dN2: a cubic in h (disp_tri_local). The host keeps a shell only
+ * where the map (b, h) -> P + h N has a Jacobian of at least cos 86 degrees of the flat
+ * one over the whole prism (at h = 0: every vertex normal within 86 degrees of the face
+ * normal), so that the coordinates are unique and the five faces bound the shell
+ * (texray.compile.shells; a mesh with a triangle that fails is tessellated instead). The
+ * search is the one below on the shell's entry..exit segment, with the shell's share of
+ * the N samples (disp_tri_steps); samples within
+ * TX_DISP_TRI_BAND of the triangle's edges are evaluated on the extended triangle, so
+ * that the segment's ends, which lie on the side patches up to rounding, always count:
+ * a crossing in the shell then lies between two evaluated samples of opposite sign, and
+ * the shells of neighbouring triangles leave no hole between them. An any-hit ray that
+ * entered through a side shared with another shell of the mesh (Displaced.edges) has
+ * not come from outside the surface's volume (from_outside below).
  * Closest hit: the first sign change of f after A (seen from above or below).
  * Any hit (shadow rays): a crossing into the surface (f from + to -) always counts;
  * one out of it only when the ray entered the volume from outside (A > tmin): a ray
@@ -68,6 +89,13 @@ typedef struct {
     float radius, z0, z1, th0, span, hmin, hmax;
     float hstep;            /* world units per unorm16 step of the stored heights: (hmax - hmin) / 65535 */
     float delta;            /* rounding bound of h along the ray (header comment) */
+#if TX_DISP_MESH
+    float3 dn1, dn2;        /* triangle: N1 - N0, N2 - N0 (n = N0; e0, e1 = P1 - P0, P2 - P0) */
+    float3 c0, c1, c2;      /* triangle: (e0 + h dn1) x (e1 + h dn2) = c0 + h c1 + h^2 c2 */
+    float nc0, nc1, nc2;    /* triangle: n . c0, n . c1, n . c2 */
+    float2 t0, t1, t2;      /* triangle: texture uv at P0, and its changes to P1, P2 */
+    float slo, shi;         /* triangle: the shell's h range */
+#endif
 } DispFrame;
 
 inline DispFrame disp_frame(__global const Displaced* d, float3 org, float3 dir)
@@ -95,7 +123,22 @@ inline DispFrame disp_frame(__global const Displaced* d, float3 org, float3 dir)
         f.r0 = cross3(f.e0, f.n); f.r1 = cross3(f.g, f.n);
         f.k2 = dot3(cross3(f.g, f.e1), f.n); f.k1 = dot3(cross3(f.e0, f.e1), f.n);
         ext += sqrt(dot3(f.e0, f.e0)) + sqrt(dot3(f.e1, f.e1)) + sqrt(dot3(f.g, f.g));
-    } else {
+    }
+#if TX_DISP_MESH
+    else if (f.shape == DISP_TRIANGLE) {
+        f.r0 = f.r1 = (float3)(0.0f);
+        f.dn1 = vload3(0, d->n1) - f.n; f.dn2 = vload3(0, d->n2) - f.n;
+        f.c0 = cross3(f.e0, f.e1);
+        f.c1 = cross3(f.e0, f.dn2) + cross3(f.dn1, f.e1);
+        f.c2 = cross3(f.dn1, f.dn2);
+        f.nc0 = dot3(f.n, f.c0); f.nc1 = dot3(f.n, f.c1); f.nc2 = dot3(f.n, f.c2);
+        f.t0 = (float2)(d->uv[0], d->uv[1]);
+        f.t1 = (float2)(d->uv[2], d->uv[3]) - f.t0; f.t2 = (float2)(d->uv[4], d->uv[5]) - f.t0;
+        f.slo = d->slo; f.shi = d->shi;
+        ext += sqrt(dot3(f.e0, f.e0)) + sqrt(dot3(f.e1, f.e1));     /* |N| <= 1: unit vertex normals */
+    }
+#endif
+    else {
         f.r0 = f.r1 = (float3)(0.0f);
         ext += f.radius + (f.shape == DISP_CYLINDER ? TX_MAX(fabs(f.z0), fabs(f.z1)) : 0.0f);
     }
@@ -132,6 +175,52 @@ inline float2 disp_inverse_bilinear(const DispFrame* f, float3 q)
     float u = dot3(q - v * f->e1, w) / dot3(w, w);
     return (float2)(u, v);
 }
+
+#if TX_DISP_MESH
+/* How far beyond a triangle's edges (in barycentrics) its surface is still evaluated
+ * (header comment): 2^-12, some hundred times the barycentrics' rounding at a side patch
+ * hit, and small enough that the extended surface stays within the shell's bound (the
+ * host widens each uv footprint by the same band, texray.compile.shells.BAND). */
+#define TX_DISP_TRI_BAND 2.44140625e-4f
+/* Newton steps on the cubic of disp_tri_local: from the linearized root, the error
+ * squares each step (relative error ~ |h| |dN| / |E|, 0.1 for a coarse torus): four take
+ * it below float32 rounding. They stop early once a step is below 2^-24 |h|, half an ulp
+ * of h (at once where the vertex normals are equal: the cubic is then linear). */
+#define TX_DISP_TRI_NEWTON 4
+#define TX_DISP_TRI_NEWTON_TOL 5.9604645e-08f
+
+/* (b1, b2, h) of the point q (relative to P0) in a mesh triangle's shell: q - h N0 =
+ * b1 (E1 + h dN1) + b2 (E2 + h dN2), so (q - h N0) . ((E1 + h dN1) x (E2 + h dN2)) = 0,
+ * a0 + a1 h + a2 h^2 + a3 h^3 with the frame's c_k; Newton from the linear root (exact at
+ * once for equal vertex normals), then b from the plane's cross products. NaN where the
+ * cubic has no usable root (a degenerate triangle). */
+inline float3 disp_tri_local(const DispFrame* f, float3 q)
+{
+    float a0 = dot3(q, f->c0), a1 = dot3(q, f->c1) - f->nc0, a2 = dot3(q, f->c2) - f->nc1, a3 = -f->nc2;
+    float h = -a0 / a1;
+    for (int k = 0; k < TX_DISP_TRI_NEWTON; ++k) {
+        float p = ((a3 * h + a2) * h + a1) * h + a0, dp = (3.0f * a3 * h + 2.0f * a2) * h + a1;
+        float step = p / dp;
+        h -= step;
+        if (!(fabs(step) > TX_DISP_TRI_NEWTON_TOL * fabs(h))) break;
+    }
+    float3 u = f->e0 + h * f->dn1, v = f->e1 + h * f->dn2, w = q - h * f->n, c = cross3(u, v);
+    float inv = 1.0f / dot3(c, c);
+    return (float3)(dot3(cross3(w, v), c) * inv, dot3(cross3(u, w), c) * inv, h);
+}
+
+/* b = (b1, b2) in the triangle extended by TX_DISP_TRI_BAND; false for NaN. */
+inline int disp_tri_inside(float2 b)
+{
+    return b.x >= -TX_DISP_TRI_BAND && b.y >= -TX_DISP_TRI_BAND && b.x + b.y <= 1.0f + TX_DISP_TRI_BAND;
+}
+
+/* The texture uv of barycentrics b. */
+inline float2 disp_tri_uv(const DispFrame* f, float2 b)
+{
+    return f->t0 + b.x * f->t1 + b.y * f->t2;
+}
+#endif
 
 /* (u, v, h) of the point q (relative to Displaced.p); u, v NaN or outside [0, 1]
  * where the primitive has no surface. */
@@ -175,6 +264,14 @@ inline float disp_height(__global const ushort* hts, const DispFrame* f, float2 
 /* f(t) = h - H at the ray's point t (+inf outside the domain); *uv its (u, v). */
 inline float disp_f(__global const ushort* hts, const DispFrame* f, float t, float2* uv)
 {
+#if TX_DISP_MESH
+    if (f->shape == DISP_TRIANGLE) {               /* *uv: the barycentrics (b1, b2) */
+        float3 b = disp_tri_local(f, f->q0 + t * f->dir);
+        *uv = b.xy;
+        if (!disp_tri_inside(b.xy)) return INFINITY;
+        return b.z - disp_height(hts, f, disp_tri_uv(f, b.xy), 0);
+    }
+#endif
     float3 l = disp_local(f, f->q0 + t * f->dir);
     *uv = l.xy;
     if (!(l.x >= 0.0f && l.x <= 1.0f && l.y >= 0.0f && l.y <= 1.0f)) return INFINITY;
@@ -236,6 +333,109 @@ inline int disp_clip(const DispFrame* f, float tmin, float tmax, float* A, float
     *A = tn; *B = tf;
     return tn <= tf && tn < INFINITY;
 }
+
+#if TX_DISP_MESH
+/* A crossing t of the ray with a face of a prism shell: widens [*ta, *tb], *entry the face
+ * of the nearest, *n counts them. */
+inline void disp_tri_crossing(float t, int face, float* ta, float* tb, int* entry, int* n)
+{
+    if (t < *ta) { *ta = t; *entry = face; }
+    *tb = TX_MAX(*tb, t);
+    ++*n;
+}
+
+/* (b1, b2, h) of q in [0, 1]-barycentrics and [hlo, hhi]: q inside the shell. */
+inline int disp_tri_in_shell(const DispFrame* f, float3 q, float hlo, float hhi)
+{
+    float3 b = disp_tri_local(f, q);
+    return b.x >= 0.0f && b.y >= 0.0f && b.x + b.y <= 1.0f && b.z >= hlo && b.z <= hhi;
+}
+
+/* Entry A and exit B of a mesh triangle's prism shell (header comment) within (tmin,
+ * tmax), widened by delta in h like the other volumes: the first and last crossing of its
+ * five faces, or tmin / tmax where the ray starts / ends inside. The bottom and top
+ * (h = hlo, hhi) are flat triangles: (q - h N0) . C(h) = 0 is linear in t, met within
+ * the triangle extended by TX_DISP_TRI_BAND (a ray through a shared edge, or lying in a
+ * shared side patch, as rays from a convex mesh's centre toward its edges do, meets
+ * the top and bottom of both shells beside it, where the exact test could reject it in
+ * both); the sides are the bilinear patches between corners k, k + 1 (quad.h), each met
+ * at most twice. A crossing count of the wrong parity (a crossing lost to rounding, or
+ * one more in the band) takes the corners' box instead, which holds the shell:
+ * conservative; it returns 2 then, and the search takes all N samples over the box's
+ * segment (its ends lie outside the shell, where f is not evaluated).
+ * *from_outside: the ray entered through the bottom, the top or a side on the mesh's
+ * border (not through a side shared with a neighbour's shell, Displaced.edges). */
+inline int disp_tri_clip(__global const Displaced* d, const DispFrame* f, float tmin, float tmax, float* A, float* B,
+                         int* from_outside)
+{
+    float hlo = f->slo - f->delta, hhi = f->shi + f->delta;
+    float3 c[3] = { (float3)(0.0f), f->e0, f->e1 };
+    float3 nv[3] = { f->n, f->n + f->dn1, f->n + f->dn2 };
+    float3 lo = (float3)(INFINITY), hi = (float3)(-INFINITY);
+    for (int k = 0; k < 3; ++k) {
+        float3 a = c[k] + hlo * nv[k], b = c[k] + hhi * nv[k];
+        lo = TX_MIN(lo, TX_MIN(a, b)); hi = TX_MAX(hi, TX_MAX(a, b));
+    }
+    float tn = tmin, tf = tmax;
+    if (!(slab_clip(f->q0.x, f->dir.x, lo.x, hi.x, 1.0f, &tn, &tf) && slab_clip(f->q0.y, f->dir.y, lo.y, hi.y, 1.0f, &tn, &tf)
+          && slab_clip(f->q0.z, f->dir.z, lo.z, hi.z, 1.0f, &tn, &tf) && tn <= tf))
+        return 0;
+    float ta = INFINITY, tb = -INFINITY, t;
+    int entry = -1, n = 0;
+    for (int k = 0; k < 2; ++k) {
+        float h = k ? hhi : hlo;
+        float3 C = f->c0 + h * (f->c1 + h * f->c2), u = f->e0 + h * f->dn1, v = f->e1 + h * f->dn2;
+        t = dot3(h * f->n - f->q0, C) / dot3(f->dir, C);
+        if (!(t > tmin && t < tmax)) continue;
+        float3 w = f->q0 + t * f->dir - h * f->n;
+        float inv = 1.0f / dot3(C, C), b1 = dot3(cross3(w, v), C) * inv, b2 = dot3(cross3(u, w), C) * inv;
+        if (disp_tri_inside((float2)(b1, b2))) disp_tri_crossing(t, 3 + k, &ta, &tb, &entry, &n);
+    }
+    for (int k = 0; k < 3; ++k) {
+        int j = k == 2 ? 0 : k + 1;
+        float3 p0 = c[k] + hlo * nv[k], p1 = c[j] + hlo * nv[j], p2 = c[j] + hhi * nv[j], p3 = c[k] + hhi * nv[k];
+        float from = tmin;
+        float2 uvq;
+        for (int r = 0; r < 2 && quad_intersect_corners(p0, p1, p2, p3, f->q0, f->dir, from, tmax, &t, &uvq); ++r) {
+            disp_tri_crossing(t, k, &ta, &tb, &entry, &n);
+            from = t;
+        }
+    }
+    int in0 = tn <= tmin && disp_tri_in_shell(f, f->q0 + tmin * f->dir, hlo, hhi);
+    int in1 = tf >= tmax && disp_tri_in_shell(f, f->q0 + tmax * f->dir, hlo, hhi);
+    if ((n + in0 + in1) & 1) {
+        *A = tn; *B = tf;
+        *from_outside = tn > tmin;
+        return 2;
+    }
+    if (in0) { ta = tmin; entry = -1; }
+    if (in1) tb = tmax;
+    if (!(ta <= tb)) return 0;
+    *A = clamp(ta, tn, tf); *B = clamp(tb, tn, tf);
+    *from_outside = !in0 && !(entry >= 0 && entry < 3 && ((d->edges >> entry) & 1u));
+    return 1;
+}
+#endif
+
+#if TX_DISP_MESH
+/* A shell's share of the search's N samples: N is the sample density of the quad's search,
+ * N samples over the height field's whole range [hmin, hmax] along the normal, and a shell
+ * takes the fraction of them that its segment spans: the smaller of its thickness
+ * (shi - slo) / (hmax - hmin) and its segment's length against the quad's whole path
+ * (hmax - hmin) / (|dir| cos), cos the largest over its vertex normals and face normal (the
+ * most samples where the surface curves). A ray crossing k shells then takes about N
+ * samples in all, as over a quad, not k N; at least 1 step (both ends). */
+inline uint disp_tri_steps(const DispFrame* f, float3 dir, float A, float B, uint steps)
+{
+    float3 nv1 = f->n + f->dn1, nv2 = f->n + f->dn2;
+    float c = TX_MAX(TX_MAX(fabs(dot3(f->n, dir)), fabs(dot3(nv1, dir)) * rsqrt(dot3(nv1, nv1))),
+                     TX_MAX(fabs(dot3(nv2, dir)) * rsqrt(dot3(nv2, nv2)), fabs(dot3(f->c0, dir)) * rsqrt(dot3(f->c0, f->c0))));
+    float range = f->hmax - f->hmin;
+    float share = TX_MIN((f->shi - f->slo) / range, (B - A) * c / range);
+    if (!(share < 1.0f)) return steps;                 /* also NaN: a flat field (range 0) */
+    return clamp((uint)ceil((float)steps * share), 1u, steps);
+}
+#endif
 
 /* The lecture's search on [A, B] (header comment). Samples where the primitive has
  * no surface (outside the (u, v) domain, e.g. [A, B]'s ends rounded just past the
@@ -395,8 +595,18 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
 {
     DispFrame f = disp_frame(d, org, dir);
     float A, B;
-    if (!disp_clip(&f, tmin, tmax, &A, &B)) return 0;
-    int from_outside = A > tmin;
+    int from_outside, boxed = 0;
+#if TX_DISP_MESH
+    if (f.shape == DISP_TRIANGLE) {
+        int clip = disp_tri_clip(d, &f, tmin, tmax, &A, &B, &from_outside);
+        if (!clip) return 0;
+        boxed = clip == 2;
+    } else
+#endif
+    {
+        if (!disp_clip(&f, tmin, tmax, &A, &B)) return 0;
+        from_outside = A > tmin;
+    }
     uint method = d->method;
     int hit;
     if ((method & 3u) == DISP_MAXMIP && f.shape == DISP_QUAD) {
@@ -407,9 +617,15 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
             float3 qa = f.q0 + A * dir;
             float3 nrm = f.shape == DISP_QUAD || f.shape == DISP_TRAPEZOID ? f.n
                        : (f.shape == DISP_SPHERE ? qa : qa - dot3(qa, f.n) * f.n);
+#if TX_DISP_MESH
+            if (f.shape == DISP_TRIANGLE) nrm = f.c0;
+#endif
             float cosv = fabs(dot3(nrm, dir)) * rsqrt(dot3(nrm, nrm) * dot3(dir, dir));
             steps = (uint)ceil((float)steps / TX_MAX(cosv, 0.125f));   /* NaN cos -> 8 N */
         }
+#if TX_DISP_MESH
+        if (f.shape == DISP_TRIANGLE && !boxed) steps = disp_tri_steps(&f, dir, A, B, steps);
+#endif
         hit = disp_search(hts, &f, A, B, steps, TX_MIN(d->refine, TX_DISP_MAX_REFINE), any, from_outside, t, uv);
     }
     return hit && *t > tmin && *t < tmax;
@@ -428,6 +644,28 @@ inline void displaced_geom(__global const Displaced* d, __global const ushort* h
 {
     DispFrame f = disp_frame(d, org, dir);
     float2 grad;
+#if TX_DISP_MESH
+    if (f.shape == DISP_TRIANGLE) {
+        /* param: the barycentrics. The height field's gradient taken to them (dH/db_k =
+         * grad . dt/db_k) turns the interpolated normal N(b) with the surface's tangents
+         * at the displaced height, dP/db_k + H dN/db_k (the spheres' "tangents at the
+         * displaced radius"); texture coordinates and the tangents with respect to them
+         * as for a plain triangle, J = [t1 t2]. */
+        float2 tex = disp_tri_uv(&f, param);
+        float Ht = disp_height(hts, &f, tex, &grad);
+        float3 pu = f.e0 + Ht * f.dn1, pv = f.e1 + Ht * f.dn2;
+        float3 nb = tx_unit_or(f.n + param.x * f.dn1 + param.y * f.dn2, tx_unit_or(f.c0, f.n));
+        g->p = org + t * dir;
+        g->perr = gamma_n(16.0f) * (abs3(org) + abs3(t * dir) + (float3)(f.delta));
+        g->ng = bump_normal(nb, pu, pv, (float2)(dot(grad, f.t1), dot(grad, f.t2)));
+        g->uv = tex;
+        if (!reparam_tangents(f.t1, f.t2, pu, pv, &g->dpdu, &g->dpdv)) {
+            g->dpdu = pu;
+            g->dpdv = pv;
+        }
+        return;
+    }
+#endif
     float H = disp_height(hts, &f, clamp(param, 0.0f, 1.0f), &grad);
     float3 p = org + t * dir;
     g->p = p;

@@ -77,10 +77,9 @@ inline int quad_try_root(float u, float3 q00, float3 q10, float3 w0, float3 w1, 
  * roundings stay within that bound for non-grazing rays, so such a hit cannot
  * be told from the surface the ray starts on (pbrt-v4 6.8.5's reasoning for
  * triangles). */
-inline int quad_intersect(__global const QuadVerts* qv, float3 org, float3 dir, float tmin, float tmax,
-                          float* t, float2* uv)
+inline int quad_intersect_corners(float3 p0, float3 p1, float3 p2, float3 p3, float3 org, float3 dir, float tmin,
+                                  float tmax, float* t, float2* uv)
 {
-    float3 p0 = quad_p0(qv), p1 = quad_p1(qv), p2 = quad_p2(qv), p3 = quad_p3(qv);
     float3 eu = (p1 - p0) + (p2 - p3), ev = (p3 - p0) + (p2 - p1);
     float3 du = cross3(dir, eu), dv = cross3(dir, ev);
     int swap = dot3(dv, dv) / dot3(ev, ev) < dot3(du, du) / dot3(eu, eu);   /* |dir|^2 sin^2 of each angle */
@@ -111,6 +110,14 @@ inline int quad_intersect(__global const QuadVerts* qv, float3 org, float3 dir, 
     *t = best.x;
     *uv = swap ? best.zy : best.yz;
     return 1;
+}
+
+/* quad_intersect_corners on a QuadVerts record. The corners version also serves the side
+ * patches of displaced meshes' prism shells (geometry/displace.h disp_tri_clip). */
+inline int quad_intersect(__global const QuadVerts* qv, float3 org, float3 dir, float tmin, float tmax,
+                          float* t, float2* uv)
+{
+    return quad_intersect_corners(quad_p0(qv), quad_p1(qv), quad_p2(qv), quad_p3(qv), org, dir, tmin, tmax, t, uv);
 }
 
 /* The patch's texture coordinates at its parameters (u, v) = param into g->uv, and

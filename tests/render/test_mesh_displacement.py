@@ -125,9 +125,9 @@ def test_mixed_materials_and_errors(rng):
     assert len(cs.tri_verts) == len(t.faces)
     with pytest.raises(tx.SceneError, match="nouv: uvs: displacement reads the height texture"):
         tessellate_mesh(tx.Mesh(QUAD, np.array([[0, 1, 2]]), material=bumpy, name="nouv"))
-    with pytest.raises(tx.SceneError, match="tessellate' only"):
+    with pytest.raises(tx.SceneError, match="s: material.displacement: method='maxmip' does not apply"):
         tx.Mesh(QUAD, np.array([[0, 1, 2]]), uvs=QUAD_UV, name="s",
-                material=tx.Material(displacement=_displacement(rng, method="search")))
+                material=tx.Material(displacement=_displacement(rng, method="maxmip")))
     inst = tx.Instance(tx.Mesh(QUAD, np.array([[0, 1, 2]]), uvs=QUAD_UV, material=bumpy, name="src"),
                        tx.Transform(translate=(0, 0, 1)))
     with pytest.raises(tx.SceneError, match="an instanced mesh is not displaced"):
@@ -170,13 +170,13 @@ def test_a_displaced_uv_sphere_mesh_matches_the_displaced_sphere(rng, device):
 
 
 def test_the_bench_sweeps_a_displaced_mesh_by_its_tessellation():
-    """A scene with a displaced triangle mesh gets the tessellation series only (the search
-    does not apply to meshes); a quad scene keeps every method."""
+    """A scene with a displaced triangle mesh gets the tessellation series and the search's
+    (tests/render/test_mesh_search.py), no maxmip; a quad scene keeps every method."""
     from texray.bench import sweep
     from texray.bench.suite import suite_paths
     mesh = tx.Scene.load(suite_paths(["mesh_terrain"])["mesh_terrain"])
     quad = tx.Scene.load(suite_paths(["terrain"])["terrain"])
-    assert not sweep.search_applies(mesh) and sweep.search_applies(quad)
-    (name, points), = sweep.displacement_series(mesh)
-    assert name == "tessellate" and [kw["resolution"] for _, kw in points] == list(sweep.DISP_TESSELLATIONS)
+    series = dict(sweep.displacement_series(mesh))
+    assert [kw["resolution"] for _, kw in series["tessellate"]] == list(sweep.DISP_TESSELLATIONS)
+    assert "maxmip" not in series and "search M=8" in series
     assert {n for n, _ in sweep.displacement_series(quad)} >= {"search M=0", "maxmip", "tessellate"}

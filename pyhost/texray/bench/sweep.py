@@ -23,7 +23,7 @@ import numpy as np
 from ..compile import compile_scene
 from ..errors import SceneError
 from ..renderer import render
-from ..scene import Bump, Displacement, Mesh, Scene
+from ..scene import Bump, Displacement, Scene
 from ..scene.shape import materials_of
 from .suite import median_spread
 from .suite import suite_paths
@@ -240,10 +240,13 @@ def displacement_scenes(names=DISP_SCENES):
 
 
 def search_applies(scene):
-    """The per-pixel search displaces quads, spheres and cylinders, not triangle meshes
-    (tessellated only): does every displaced object take it?"""
-    return not any(isinstance(o, Mesh) and any(m.displacement is not None for m in o.materials)
-                   for o in scene.objects)
+    """The per-pixel search displaces spheres, cylinders, planar convex quads and triangle
+    meshes (prism shells, texray.compile.shells): does every displaced object take it?"""
+    try:
+        compile_scene(with_displacement(scene, "search"))
+    except SceneError:
+        return False
+    return True
 
 
 def displacement_series(scene):
@@ -251,7 +254,7 @@ def displacement_series(scene):
     varying at each M, the adaptive search, maxmip (where every displaced object is a
     planar parallelogram quad) and the tessellation at 1 and 2 vertices per texel (compared
     like the others with the reference, a tessellation at DISP_REF_RESOLUTION). A scene
-    with a displaced triangle mesh gets the tessellations only (:func:`search_applies`).
+    where the search does not apply gets the tessellations only (:func:`search_applies`).
     [(series name, [(label, {"method": ..., knobs})])]."""
     tessellate = ("tessellate", [(f"tessellate {r} vertex/texel", {"method": "tessellate", "resolution": r})
                                  for r in DISP_TESSELLATIONS])

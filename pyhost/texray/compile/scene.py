@@ -23,6 +23,7 @@ from ..scene import Camera, Cylinder, Instance, Mesh, Quad, Scene, Sphere
 from ..scene.shape import check_extent, materials_of, outward
 from ..scene.texture import FILTERS
 from . import instances as inst_blas
+from . import shells as mesh_shells
 from .heights import METHOD_ADAPTIVE, METHOD_IDS, height_key, pack_heights
 from .materials import MaterialTable
 from .objects import object_table
@@ -110,14 +111,17 @@ def _joined(arrays):
     return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
 
 
-def _displaced(items, mats):
+def _displaced(items, shells, mats):
     """layout.DISPLACED records, the shared height buffer and the float32 (lo, hi) boxes of
     the displaced volumes, for (obj_id, shape) pairs whose displacement is searched on the
-    device; each shape fills its own fields and gives its volume's box."""
+    device (each shape fills its own fields and gives its volume's box), then the prism
+    shells of (obj_id, texray.compile.shells.Shells) meshes."""
     rec = np.zeros(len(items), layout.DISPLACED)
-    if not items:
+    if not items and not shells:
         return rec, None, (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32))
-    heights, index = pack_heights([o.material.displacement for _, o in items])
+    heights, index = pack_heights([o.material.displacement for _, o in items]
+                                  + [m.displacement for _, s in shells for m in s.mesh.materials
+                                     if m.displacement is not None and m.displacement.method == "search"])
     lo, hi = np.zeros((len(items), 3)), np.zeros((len(items), 3))
     for i, (obj_id, o) in enumerate(items):
         d, r = o.material.displacement, rec[i]
@@ -132,6 +136,13 @@ def _displaced(items, mats):
         lo[i], hi[i] = o.displaced_record(r, hmin, hmax)
     for (_, o), a, b in zip(items, lo, hi):
         check_extent(np.stack([a, b]), f"{o.name}: material.displacement.", "scale, offset")
+    if shells:
+        parts = [mesh_shells.records(s, obj_id, mats, index) for obj_id, s in shells]
+        for (_, s), (_, a, b) in zip(shells, parts):
+            check_extent(np.concatenate([a, b]), f"{s.mesh.name}: material.displacement.", "scale, offset")
+        rec = np.concatenate([rec] + [r for r, _, _ in parts])
+        lo = np.concatenate([lo] + [a for _, a, _ in parts])
+        hi = np.concatenate([hi] + [b for _, _, b in parts])
     # The kernel pads the volume by a rounding bound of the ray's height (displace.h);
     # 2^-16 of the box's size keeps that pad inside the box for rays from within it.
     pad = 2.0 ** -16 * (np.abs(lo).max(axis=1) + np.abs(hi).max(axis=1) + (hi - lo).max(axis=1))[:, None]
@@ -140,10 +151,11 @@ def _displaced(items, mats):
 
 def _sorted_objects(scene):
     """{shape class: [(obj_id, shape)]} of what the BVH holds directly (tessellated shapes
-    as meshes) and the [(obj_id, shape)] displaced on the device."""
+    as meshes), the [(obj_id, shape)] displaced on the device and the [(obj_id,
+    texray.compile.shells.Shells)] of meshes displaced by the search."""
     by_kind = {cls: [] for cls, _ in _KINDS}
     by_kind[Instance] = []
-    displaced = []
+    displaced, shells = [], []
     for obj_id, obj in enumerate(scene.objects):
         d = getattr(obj.material, "displacement", None)
         if isinstance(obj, Instance):
@@ -152,18 +164,44 @@ def _sorted_objects(scene):
                                  "tessellate it (texray.compile.tessellate_mesh) and instance the result")
             by_kind[Instance].append((obj_id, obj))
         elif isinstance(obj, Mesh):
-            ds = [m.displacement for m in obj.materials if m.displacement is not None]
-            if any(d.method != "tessellate" for d in ds):    # Mesh validation refuses these; changed since
+            methods = {m.displacement.method for m in obj.materials if m.displacement is not None}
+            if methods == {"search"}:
+                try:
+                    s = mesh_shells.prepare(obj)
+                except mesh_shells.NotABound as e:
+                    warnings.warn(f"{e}: method='search' would miss parts of the surface; tessellated instead",
+                                  stacklevel=4)
+                    by_kind[Mesh].append((obj_id, tessellate_mesh(obj, methods=("search",))))
+                    continue
+                shells.append((obj_id, s))
+                plain = _plain_faces(obj)
+                if plain is not None:
+                    by_kind[Mesh].append((obj_id, plain))
+                continue
+            if methods - {"tessellate"}:        # Mesh validation refuses these; changed since
                 raise SceneError(f"{obj.name}: material.displacement: a triangle mesh is displaced by "
-                                 "method='tessellate' only (no bounding volume for the per-pixel search)")
-            by_kind[Mesh].append((obj_id, tessellate_mesh(obj) if ds else obj))
+                                 f"method='search' or 'tessellate', one of them for all its materials; got "
+                                 f"{', '.join(sorted(methods))}")
+            by_kind[Mesh].append((obj_id, tessellate_mesh(obj) if methods else obj))
         elif d is None:
             by_kind[type(obj)].append((obj_id, obj))
         elif d.method == "tessellate":
             by_kind[Mesh].append((obj_id, tessellate(obj)))
         else:
             displaced.append((obj_id, obj))
-    return by_kind, displaced
+    return by_kind, displaced, shells
+
+
+def _plain_faces(mesh):
+    """The faces of ``mesh`` that the search does not displace (their material has no
+    displacement) as a Mesh in world space, or None when there are none."""
+    plain = ~mesh_shells.searched_faces(mesh)
+    if not plain.any():
+        return None
+    p, n = mesh.world()
+    ids = None if mesh.material_ids is None else mesh.material_ids[plain]
+    return Mesh(p, mesh.faces[plain], uvs=mesh.uvs, normals=n, material=mesh.material, material_ids=ids,
+                name=mesh.name, mapping=mesh.mapping)
 
 
 def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_builder="auto") -> CompiledScene:
@@ -195,7 +233,7 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
         else:
             obj.validate()
     step("validate")
-    by_kind, displaced = _sorted_objects(scene)
+    by_kind, displaced, shells = _sorted_objects(scene)
     step("tessellate")
     mats = MaterialTable(texture_filter)
     meshes = by_kind[Mesh] + [(i, o.mesh) for i, o in by_kind[Instance]]
@@ -206,7 +244,7 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
         recs, boxes[cls.PRIM] = _records(cls, by_kind[cls], mats, any_normals, any_uvs)
         arrays.update(recs)
     step("records")
-    disp, heights, boxes[layout.PRIM_DISPLACED] = _displaced(displaced, mats)
+    disp, heights, boxes[layout.PRIM_DISPLACED] = _displaced(displaced, shells, mats)
     step("heights")
     blases = None
     if by_kind[Instance]:
@@ -254,7 +292,8 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
                         shininess_maps="shininess_tex" in slots, labels="label_tex" in slots,
                         bump=any(m.bump is not None for m in mats.materials),
                         normal_maps=any(m.normal_map is not None for m in mats.materials),
-                        displacement=len(disp) > 0, instances=instances is not None,
+                        displacement=len(disp) > 0, displaced_meshes=bool(shells),
+                        instances=instances is not None,
                         stack_size=stack_size_for(wide.stack_depth(wide_depth)),
                         max_lights=max_lights_for(len(scene.lights)))
     objects, objects_generic = object_table(scene.objects), object_table(scene.objects, always=True)

@@ -30,11 +30,13 @@ MAX_LEVEL = 256                    # lattice cuts per edge at most (256^2 = 6553
 MAX_TRIANGLES = 1 << 24            # the tessellation's size at most: a clear error instead of an exhausted host
 
 
-def tessellate_mesh(mesh, resolution=None) -> Mesh:
+def tessellate_mesh(mesh, resolution=None, methods=("tessellate",)) -> Mesh:
     """The displaced surface of ``mesh`` as a new Mesh in world space (see the module
-    docstring); faces whose material is not displaced are kept as they are (level 1
-    unless a displaced neighbour refines their shared edge). ``resolution``: the cuts
-    per texel, instead of each Displacement's own."""
+    docstring); faces whose material is not displaced (by one of ``methods``) are kept as
+    they are (level 1 unless a displaced neighbour refines their shared edge).
+    ``resolution``: the cuts per texel, instead of each Displacement's own. ``methods``:
+    ("search",) tessellates a mesh whose search shells would not bound its surface
+    (texray.compile.shells)."""
     where = f"{mesh.name}: "
     if mesh.mapping is not None:
         raise SceneError(f"{where}mapping: a displaced mesh is tessellated from its own uvs; a projection "
@@ -50,11 +52,11 @@ def tessellate_mesh(mesh, resolution=None) -> Mesh:
     uv = np.asarray(mesh.uvs, np.float64)
     mats = mesh.materials
     fmat = mesh.face_materials()
-    disp = [m.displacement if m.displacement is not None and m.displacement.method == "tessellate" else None
+    disp = [m.displacement if m.displacement is not None and m.displacement.method in methods else None
             for m in mats]
     if n is None:
-        n = _vertex_normals(p, f)
-    n = _unit(np.asarray(n, np.float64))
+        n = vertex_normals(p, f)
+    n = unit_rows(np.asarray(n, np.float64))
 
     # --- levels: per face-edge from its texels, per unique edge the largest -----------------
     edges = np.stack([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]], axis=1)          # (F, 3, 2), edge k: v_k -> v_k+1
@@ -102,7 +104,7 @@ def tessellate_mesh(mesh, resolution=None) -> Mesh:
     if n_edge_pts:
         t = et[:, None]
         pe = (1 - t) * p[e_lo[ek]] + t * p[e_hi[ek]]
-        ne = _unit((1 - t) * n[e_lo[ek]] + t * n[e_hi[ek]])
+        ne = unit_rows((1 - t) * n[e_lo[ek]] + t * n[e_hi[ek]])
         uve = (1 - t) * uv[e_lo[ek]] + t * uv[e_hi[ek]]
         positions.append(pe + _heights(disp, edge_disp[ek], uve)[:, None] * ne)
         uvs.append(uve)
@@ -123,7 +125,7 @@ def tessellate_mesh(mesh, resolution=None) -> Mesh:
     pos = np.concatenate(positions)
     faces = np.concatenate(out_faces)
     mat_ids = np.concatenate(out_mats)
-    normals = _vertex_normals(pos, faces)
+    normals = vertex_normals(pos, faces)
     material = mesh.material if len(mats) == 1 else list(mats)
     return Mesh(pos, faces, uvs=np.concatenate(uvs), normals=normals, material=material,
                 material_ids=None if len(mats) == 1 else mat_ids, name=f"{mesh.name} (tessellated)")
@@ -174,7 +176,7 @@ def _lattice(level, sel, f, fmat, p, n, uv, disp, edge_id, edge_level, e_lo, e_f
         return ids, np.zeros((0, 3)), np.zeros((0, 2)), tris
     w0, w1, w2 = (x[interior][None, :, None] / level for x in (c, a, b))
     pi = w0 * p[fs[:, 0]][:, None] + w1 * p[fs[:, 1]][:, None] + w2 * p[fs[:, 2]][:, None]
-    nni = _unit(w0 * n[fs[:, 0]][:, None] + w1 * n[fs[:, 1]][:, None] + w2 * n[fs[:, 2]][:, None])
+    nni = unit_rows(w0 * n[fs[:, 0]][:, None] + w1 * n[fs[:, 1]][:, None] + w2 * n[fs[:, 2]][:, None])
     uvi = w0 * uv[fs[:, 0]][:, None] + w1 * uv[fs[:, 1]][:, None] + w2 * uv[fs[:, 2]][:, None]
     which = np.broadcast_to(fmat[sel][:, None], (len(sel), ni))
     which = np.where(np.array([d is not None for d in disp])[which], which, -1)
@@ -205,16 +207,17 @@ def _periodic(x, wrap):
     return np.clip(x, -1.0, 2.0)
 
 
-def _unit(v):
+def unit_rows(v):
+    """Rows of v scaled to unit length; zero rows stay zero."""
     ln = np.linalg.norm(v, axis=-1, keepdims=True)
     return np.where(ln > 0, v / np.where(ln > 0, ln, 1), 0.0)
 
 
-def _vertex_normals(p, f):
+def vertex_normals(p, f):
     """Area-weighted vertex normals of the triangles ``f`` over the points ``p``."""
     fn = np.cross(p[f[:, 1]] - p[f[:, 0]], p[f[:, 2]] - p[f[:, 0]])
     acc = np.zeros((len(p), 3))
     for k in range(3):
         for j in range(3):
             acc[:, j] += np.bincount(f[:, k], weights=fn[:, j], minlength=len(p))
-    return _unit(acc)
+    return unit_rows(acc)

@@ -136,7 +136,7 @@ QUAD_SHADE = np.dtype([
     ("material", "<u4"), ("object", "<u4"), ("prim", "<u4"), ("flags", "<u4"),
 ])
 
-# --- Displaced primitive: 176 bytes -------------------------------------------
+# --- Displaced primitive: 208 bytes -------------------------------------------
 # shape DISP_QUAD: a planar parallelogram P(u, v) = p + u e0 + v e1, n = unit e0 x e1.
 # shape DISP_TRAPEZOID: any other planar convex quad, the bilinear patch
 # P(u, v) = p + u e0 + v e1 + u v g (g = p0 - p1 + p2 - p3, in the plane), n = unit e0 x e1.
@@ -148,6 +148,13 @@ QUAD_SHADE = np.dtype([
 # starts at ``moff`` (texray.displace.minmax_pyramid). method: texray.displace
 # METHOD_IDS | METHOD_ADAPTIVE; steps N, refine M: the search's knobs. uv: texture
 # coordinates of the quad's corners, as QuadShade.uv.
+# shape DISP_TRIANGLE: one prism shell of a displaced triangle mesh (texray.compile.shells):
+# corners P0 = p, P1 = p + e0, P2 = p + e1, vertex normals n (N0), n1, n2 (unit), the surface
+# P(b1, b2) + H N(b1, b2) with P and N interpolated linearly (N not renormalized); uv the
+# corners' texture coordinates (u0 v0 u1 v1 u2 v2, the last pair unused); the shell spans
+# h in [slo, shi] (this triangle's bound of H over its uv footprint), hmin and hmax stay
+# the height field's range (the stored texels' scale); edges: bit k set when edge k (corner
+# k to k + 1) is shared with another shell of the same mesh.
 DISPLACED = np.dtype([
     ("p", "<f4", (3,)), ("radius", "<f4"),
     ("e0", "<f4", (3,)), ("z_min", "<f4"),
@@ -158,9 +165,11 @@ DISPLACED = np.dtype([
     ("object", "<u4"), ("prim", "<u4"), ("shape", "<u4"), ("method", "<u4"),
     ("hoff", "<u4"), ("moff", "<u4"), ("hw", "<u4"), ("hh", "<u4"),
     ("levels", "<u4"), ("wrap", "<u4"), ("steps", "<u4"), ("refine", "<u4"),
-    ("g", "<f4", (3,)), ("pad0", "<u4"),
+    ("g", "<f4", (3,)), ("edges", "<u4"),
+    ("n1", "<f4", (3,)), ("slo", "<f4"),
+    ("n2", "<f4", (3,)), ("shi", "<f4"),
 ])
-DISP_QUAD, DISP_SPHERE, DISP_CYLINDER, DISP_TRAPEZOID = 0, 1, 2, 3
+DISP_QUAD, DISP_SPHERE, DISP_CYLINDER, DISP_TRAPEZOID, DISP_TRIANGLE = 0, 1, 2, 3, 4
 DISP_SEARCH, DISP_MAXMIP, DISP_ADAPTIVE = 0, 1, 4     # DISPLACED.method: a method | the adaptive bit
 
 # --- Instance of a mesh: 160 bytes --------------------------------------------
@@ -289,7 +298,7 @@ CONSTANTS = {
     "PRIM_QUAD": PRIM_QUAD, "PRIM_DISPLACED": PRIM_DISPLACED,
     "PRIM_INSTANCE": PRIM_INSTANCE,
     "DISP_QUAD": DISP_QUAD, "DISP_SPHERE": DISP_SPHERE, "DISP_CYLINDER": DISP_CYLINDER,
-    "DISP_TRAPEZOID": DISP_TRAPEZOID,
+    "DISP_TRAPEZOID": DISP_TRAPEZOID, "DISP_TRIANGLE": DISP_TRIANGLE,
     "DISP_SEARCH": DISP_SEARCH, "DISP_MAXMIP": DISP_MAXMIP, "DISP_ADAPTIVE": DISP_ADAPTIVE, "HIT_KIND_SHIFT": HIT_KIND_SHIFT, "HIT_INDEX_MASK": HIT_INDEX_MASK,
     "AOV_FLOATS": AOV_FLOATS, **{f"AOV_{k.upper()}": v[0] for k, v in AOVS.items()},
     "TRI_HAS_NORMALS": TRI_HAS_NORMALS,

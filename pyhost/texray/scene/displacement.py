@@ -16,7 +16,9 @@ Methods (``Displacement.method``):
   sample on the other side of the surface, then ``refine`` bisection steps
   (``kernels/geometry/displace.h``). On spheres, cylinders and planar convex quads:
   a parallelogram, or any other (a trapezoid), whose bilinear (u, v) the kernel
-  inverts in its plane.
+  inverts in its plane; and on triangle meshes, one prism shell per triangle along
+  the interpolated vertex normals (texray.compile.shells), the mesh's own uvs
+  addressing the height field.
 * ``"maxmip"``: the exact hierarchical traversal of a min-max MIP pyramid of the
   height field (Tevs, Ihrke, Seidel, "Maximum Mipmaps for Fast, Accurate, and
   Scalable Dynamic Height Field Rendering", I3D 2008), made two-sided so that
@@ -25,7 +27,7 @@ Methods (``Displacement.method``):
   the bilinear interpolant where a quadratic vanishes. Planar parallelogram quads
   (where (u, v, h) are affine along a ray).
 * ``"tessellate"``: true geometry on the host (:func:`tessellate`), rendered as a
-  triangle mesh: the accuracy reference.
+  triangle mesh: the accuracy reference (meshes: texray.compile.tessellate_mesh).
 
 The height field's float64 reference maths: texray.scene.heightfield; the device
 packing: texray.compile.heights; tessellation: texray.compile.tessellate.
@@ -53,7 +55,7 @@ class Displacement:
     outward normal (world units: a texel value of 1 raises it by ``scale``).
 
     method: "search" (linear + binary search, ``steps`` N >= 1 and ``refine`` M >= 0
-    bisections; spheres, cylinders, planar convex quads), "maxmip" (exact hierarchical
+    bisections; spheres, cylinders, planar convex quads, triangle meshes), "maxmip" (exact hierarchical
     traversal; quads that are planar parallelograms) or "tessellate" (a triangle mesh, ``resolution`` vertices per
     texel and axis). adaptive: N grows with the grazing angle, N / max(|cos|, 1/8)
     (the path through the volume grows as 1/|cos|, so the height step per sample

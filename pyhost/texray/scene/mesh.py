@@ -128,10 +128,14 @@ class Mesh:
             V.instance(m, Material, field_, where)
             m.validate(f"{where}{field_}.")
             d = m.displacement
-            if d is not None and d.method != "tessellate":    # texray.compile.tessellate_mesh
-                raise SceneError(f"{where}{field_}.displacement: a triangle mesh is displaced by "
-                                 f"method='tessellate' only (no bounding volume for the per-pixel search), got "
-                                 f"{d.method!r}; or use a quad, sphere or cylinder")
+            if d is not None and d.method == "maxmip":    # texray.compile.tessellate_mesh, .shells
+                raise SceneError(f"{where}{field_}.displacement: method='maxmip' does not apply to a triangle "
+                                 f"mesh (no min-max traversal of its prism shells); use method='search' (per "
+                                 f"pixel) or 'tessellate'")
+        methods = {m.displacement.method for m in mats if m.displacement is not None}
+        if len(methods) > 1:
+            raise SceneError(f"{where}material: a triangle mesh is displaced by one method for all its "
+                             f"materials, got {', '.join(sorted(methods))}")
         if self.material_ids is None:
             if len(mats) > 1:
                 raise SceneError(f"{where}material_ids: required with a list of {len(mats)} materials "
