@@ -56,8 +56,8 @@ typedef int8 pint;
 /* The packet's rays org + t dir, t in (tmin, tmax), one per lane, with what the scalar
  * traversal derives once per ray: safe_inverse of the direction, its signs, the parallel
  * flag and woop_setup's shear rows; and the rays as arrays, for the lane-by-lane paths.
- * The caller fills org, dir and range (lanes it does not trace with any valid ray: they
- * are masked out) and calls packet_setup. */
+ * The caller sets every lane (packet_set_lane; a lane it does not trace with any valid ray,
+ * masked out) and calls packet_setup. */
 typedef struct {
     float org[3][TX_PACKET], dir[3][TX_PACKET], range[2][TX_PACKET];
     pfloat tmin, tmax;
@@ -66,6 +66,14 @@ typedef struct {
     pint nx, ny, nz, par;
     pfloat rxx, rxy, rxz, ryx, ryy, ryz, rzx, rzy, rzz;
 } PacketRay;
+
+/* Lane j of the packet: the ray org + t dir, t in (tmin, tmax). */
+inline void packet_set_lane(PacketRay* r, uint j, float3 org, float3 dir, float tmin, float tmax)
+{
+    r->org[0][j] = org.x; r->org[1][j] = org.y; r->org[2][j] = org.z;
+    r->dir[0][j] = dir.x; r->dir[1][j] = dir.y; r->dir[2][j] = dir.z;
+    r->range[0][j] = tmin; r->range[1][j] = tmax;
+}
 
 /* c ? a : b lane by lane for a lane mask c (-1 or 0 per lane), as bit operations: Oclgrind
  * 21.10 evaluates ?: on int16 vectors wrongly (true lanes of `c ? (int16)(1) : (int16)(2)`

@@ -68,9 +68,7 @@ inline void light_visible_packet(const Surface* s, const float3* org, const int*
             float3 dj;
             if (shadow_ray(s + j, org[j], lifted[j], lpos, &dj)) { o = org[j]; d = dj; act[j] = -1; }
         }
-        r.org[0][j] = o.x; r.org[1][j] = o.y; r.org[2][j] = o.z;
-        r.dir[0][j] = d.x; r.dir[1][j] = d.y; r.dir[2][j] = d.z;
-        r.range[0][j] = 0.0f; r.range[1][j] = 1.0f;
+        packet_set_lane(&r, j, o, d, 0.0f, 1.0f);
     }
     packet_setup(&r);
     int occ[TX_PACKET];

@@ -55,9 +55,7 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
                 rorg[j] = o; rdir[j] = d;
                 if (ray_valid(o, d, 0.0f, INFINITY)) { org = o; dir = d; act[j] = -1; }
             }
-            pr.org[0][j] = org.x; pr.org[1][j] = org.y; pr.org[2][j] = org.z;
-            pr.dir[0][j] = dir.x; pr.dir[1][j] = dir.y; pr.dir[2][j] = dir.z;
-            pr.range[0][j] = 0.0f; pr.range[1][j] = INFINITY;
+            packet_set_lane(&pr, j, org, dir, 0.0f, INFINITY);
         }
         packet_setup(&pr);
         PacketHit ph = bvh_closest_packet(TX_GEOM_ARGS, &pr, (pint)(TX_LANES(act)));

@@ -41,9 +41,7 @@ inline void packet_of_rays(__global const Ray* rays, uint base, uint n, PacketRa
                 o = ray_org(ry); d = ray_dir(ry); t0 = ry->tmin; act[j] = -1;
             }
         }
-        r->org[0][j] = o.x; r->org[1][j] = o.y; r->org[2][j] = o.z;
-        r->dir[0][j] = d.x; r->dir[1][j] = d.y; r->dir[2][j] = d.z;
-        r->range[0][j] = t0; r->range[1][j] = t1;
+        packet_set_lane(r, j, o, d, t0, t1);
     }
     packet_setup(r);
 }
