@@ -158,9 +158,11 @@ inline pfloat box_entry_packet(const PacketRay* r, float lox, float hix, float l
     return t;
 }
 
-/* The triangle tv against the lanes m of the packet, as triangle_intersect4 tests it for
- * one ray: the lanes with a hit in their (tmin, tmax) (-1), others 0. */
-inline pint triangle_any_packet(const PacketRay* r, __global const TriVerts* tv, pint m)
+/* triangle_intersect4's test of the triangle tv against the lanes m of the packet: the
+ * lanes with a hit with t in (tmin, tmax), or at t == tmax where `tie` (-1), others 0; their
+ * t and barycentrics b1, b2 into *t, *b1, *b2 (the other lanes' are any numbers). */
+inline pint triangle_packet(const PacketRay* r, __global const TriVerts* tv, pint m, pfloat tmax, pint tie,
+                            pfloat* t, pfloat* b1, pfloat* b2)
 {
     float3 a = tri_p0(tv), b = tri_p1(tv), c = tri_p2(tv);
     pfloat Ax = a.x - r->ox, Ay = a.y - r->oy, Az = a.z - r->oz;
@@ -183,11 +185,21 @@ inline pint triangle_any_packet(const PacketRay* r, __global const TriVerts* tv,
     pfloat T = U * az + V * bz + W * cz;
     pfloat inv = 1.0f / det;
     pfloat tt = T * inv;
-    ok &= (det != 0.0f) & (tt > r->tmin) & (tt < r->tmax);
+    ok &= (det != 0.0f) & (tt > r->tmin) & ((tt < tmax) | ((tt == tmax) & tie));
     if (!any(ok)) return ok;
     pfloat delta_t;
     TX_WOOP_DELTA_T(pfloat, delta_t, ax, ay, az, bx, by, bz, cx, cy, cz, U, V, W, inv);
+    *t = tt;
+    *b1 = V * inv;
+    *b2 = W * inv;
     return ok & (tt > delta_t);
+}
+
+/* The lanes of m whose ray hits the triangle tv in its (tmin, tmax). */
+inline pint triangle_any_packet(const PacketRay* r, __global const TriVerts* tv, pint m)
+{
+    pfloat t, b1, b2;
+    return triangle_packet(r, tv, m, r->tmax, (pint)(0), &t, &b1, &b2);
 }
 
 /* The leaf (first, ck) against the lanes m: the lanes with a hit. Triangles one at a time
@@ -275,42 +287,18 @@ typedef struct {
     pint prim;
 } PacketHit;
 
-/* triangle_intersect4's test and choice for the triangle tv (the scene's triangle `index`)
- * and the lanes m: a lane takes the hit where t is in (tmin, h.t), or t == h.t and index is
- * below the hit's prim -- the same tie rule, so that a lane ends with the scalar traversal's
- * hit whatever order the packet meets the triangles in. */
+/* triangle_intersect4's choice for the triangle tv (the scene's triangle `index`) and the
+ * lanes m: a lane takes the hit where t is in (tmin, h.t), or t == h.t and index is below
+ * the hit's prim -- the same tie rule (header comment). */
 inline void triangle_closest_packet(const PacketRay* r, __global const TriVerts* tv, uint index, pint m, PacketHit* h)
 {
-    float3 a = tri_p0(tv), b = tri_p1(tv), c = tri_p2(tv);
-    pfloat Ax = a.x - r->ox, Ay = a.y - r->oy, Az = a.z - r->oz;
-    pfloat Bx = b.x - r->ox, By = b.y - r->oy, Bz = b.z - r->oz;
-    pfloat Cx = c.x - r->ox, Cy = c.y - r->oy, Cz = c.z - r->oz;
-    pfloat ax = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Ax, Ay, Az), ay = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Ax, Ay, Az);
-    pfloat bx = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Bx, By, Bz), by = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Bx, By, Bz);
-    pfloat cx = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Cx, Cy, Cz), cy = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Cx, Cy, Cz);
-    pfloat U, V, W;
-    TX_WOOP_EDGES(U, V, W, ax, ay, bx, by, cx, cy);
-#ifdef cl_khr_fp64
-    if (any(m & ((U == 0.0f) | (V == 0.0f) | (W == 0.0f))))
-        TX_PACKET_EXACT_EDGES(U, V, W, ax, ay, bx, by, cx, cy);
-#endif
-    pint ok = m & (((U >= 0.0f) & (V >= 0.0f) & (W >= 0.0f)) | ((U <= 0.0f) & (V <= 0.0f) & (W <= 0.0f)));
+    pint tie = (h->prim != (pint)(-1)) & (as_puint((pint)(index)) < as_puint(h->prim));
+    pfloat t, b1, b2;
+    pint ok = triangle_packet(r, tv, m, h->t, tie, &t, &b1, &b2);
     if (!any(ok)) return;
-    pfloat det = U + V + W;
-    pfloat az = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Ax, Ay, Az), bz = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Bx, By, Bz);
-    pfloat cz = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Cx, Cy, Cz);
-    pfloat T = U * az + V * bz + W * cz;
-    pfloat inv = 1.0f / det;
-    pfloat tt = T * inv;
-    pint tie = (tt == h->t) & (h->prim != (pint)(-1)) & (as_puint((pint)(index)) < as_puint(h->prim));
-    ok &= (det != 0.0f) & (tt > r->tmin) & ((tt < h->t) | tie);
-    if (!any(ok)) return;
-    pfloat delta_t;
-    TX_WOOP_DELTA_T(pfloat, delta_t, ax, ay, az, bx, by, bz, cx, cy, cz, U, V, W, inv);
-    ok &= tt > delta_t;
-    h->t = PSEL_F(ok, tt, h->t);
-    h->b1 = PSEL_F(ok, V * inv, h->b1);
-    h->b2 = PSEL_F(ok, W * inv, h->b2);
+    h->t = PSEL_F(ok, t, h->t);
+    h->b1 = PSEL_F(ok, b1, h->b1);
+    h->b2 = PSEL_F(ok, b2, h->b2);
     h->prim = PSEL_I(ok, (pint)(index), h->prim);
 }
 
