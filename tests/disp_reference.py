@@ -67,3 +67,18 @@ def trace_each(tracer, orgs, dirs):
     miss = out["prim"] == 0xFFFFFFFF
     t = np.where(miss, np.nan, out["t"]).astype(np.float64)
     return t, np.column_stack([out["b1"], out["b2"]])
+
+
+def uv_sphere_mesh(sphere, material, nu=128, nv=64):
+    """A tx.Mesh of ``sphere``'s own parameterization: an (nu x nv)-cell lattice of its
+    surface(u, v), uvs = (u, v), its normals, zero-area faces at the poles left out."""
+    import texray as tx
+    u, v = np.meshgrid(np.linspace(0, 1, nu + 1), np.linspace(0, 1, nv + 1))
+    p, n = sphere.surface(u, v)
+    idx = np.arange((nu + 1) * (nv + 1)).reshape(nv + 1, nu + 1)
+    a, b, c, e = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, e], 1)])
+    pts = p.reshape(-1, 3)
+    area = np.linalg.norm(np.cross(pts[faces[:, 1]] - pts[faces[:, 0]], pts[faces[:, 2]] - pts[faces[:, 0]]), axis=1)
+    return tx.Mesh(pts, faces[area > 1e-12], np.stack([u.ravel(), v.ravel()], 1), n.reshape(-1, 3), name="m",
+                   material=material)

@@ -916,7 +916,7 @@ def _valid_texture(ch, L, role="colour", allow_uvt=True):
 
 def _valid_material(ch, L, kind, parallelogram=False, mapped=False, planar_convex=False):
     """A valid material for an object of ``kind`` (mesh, sphere, cylinder, quad); ``mapped``:
-    the object has a projection mapping (a displaced mesh is tessellated from its own uvs)."""
+    the object has a projection mapping (a displaced mesh reads its height texture at its own uvs)."""
     kw = {}
     if ch.boolean(0.5):
         kw["diffuse"] = _valid_texture(ch, L)

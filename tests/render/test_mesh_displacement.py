@@ -10,6 +10,7 @@ import texray as tx
 from texray.compile.tessellate_mesh import MAX_LEVEL, tessellate_mesh
 from texray.renderer.trace import Tracer
 from texray.scene.heightfield import height
+from disp_reference import uv_sphere_mesh
 
 QUAD = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float)
 QUAD_UV = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
@@ -151,17 +152,8 @@ def test_a_displaced_uv_sphere_mesh_matches_the_displaced_sphere(rng, device):
     cam = tx.Camera(eye=(0, 0.5, 3.5), look_at=(0, 0, 0), fov_y=35)
     sph = tx.Sphere(radius=1.0, name="s", material=tx.Material(
         displacement=tx.Displacement(tx.Texture(h, name="h"), scale=0.08, method="search")))
-    nu, nv = 128, 64
-    u, v = np.meshgrid(np.linspace(0, 1, nu + 1), np.linspace(0, 1, nv + 1))
-    p, n = sph.surface(u, v)
-    idx = np.arange((nu + 1) * (nv + 1)).reshape(nv + 1, nu + 1)
-    a, b, c, e = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
-    faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, e], 1)])
-    pts = p.reshape(-1, 3)
-    area = np.linalg.norm(np.cross(pts[faces[:, 1]] - pts[faces[:, 0]], pts[faces[:, 2]] - pts[faces[:, 0]]), axis=1)
-    mesh = tx.Mesh(pts, faces[area > 1e-12], np.stack([u.ravel(), v.ravel()], 1), n.reshape(-1, 3), name="m",
-                   material=tx.Material(displacement=tx.Displacement(tx.Texture(h, name="h"), scale=0.08,
-                                                                     method="tessellate", resolution=2)))
+    mesh = uv_sphere_mesh(sph, tx.Material(displacement=tx.Displacement(tx.Texture(h, name="h"), scale=0.08,
+                                                                        method="tessellate", resolution=2)))
     da, db = (tx.render(tx.Scene(camera=cam, objects=[o], ambient=(1, 1, 1)), 96, 72, 1, device=device,
                         jitter=False, aovs=("depth",), cache=False).aov["depth"][..., 0] for o in (sph, mesh))
     hit = np.isfinite(da) & np.isfinite(db)

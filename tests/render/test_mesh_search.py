@@ -22,7 +22,7 @@ from texray.compile import compile_scene
 from texray.compile import shells as S
 from texray.device import layout
 from texray.renderer.trace import Tracer
-from disp_reference import CORNERS, quad_reference, trace_each
+from disp_reference import CORNERS, quad_reference, trace_each, uv_sphere_mesh
 
 P = np.array(CORNERS, float)                                 # the y = 0 square, n = +y
 UV = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)       # the quad's (u, v) at its corners
@@ -90,16 +90,7 @@ def test_a_displaced_uv_sphere_mesh_matches_the_displaced_sphere(rng, device):
     def disp():
         return tx.Displacement(tx.Texture(h, name="h"), scale=0.08, method="search", steps=64, refine=8)
     sph = tx.Sphere(radius=1.0, name="s", material=tx.Material(displacement=disp()))
-    nu, nv = 128, 64
-    u, v = np.meshgrid(np.linspace(0, 1, nu + 1), np.linspace(0, 1, nv + 1))
-    p, n = sph.surface(u, v)
-    idx = np.arange((nu + 1) * (nv + 1)).reshape(nv + 1, nu + 1)
-    a, b, c, e = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
-    faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, e], 1)])
-    pts = p.reshape(-1, 3)
-    area = np.linalg.norm(np.cross(pts[faces[:, 1]] - pts[faces[:, 0]], pts[faces[:, 2]] - pts[faces[:, 0]]), axis=1)
-    mesh = tx.Mesh(pts, faces[area > 1e-12], np.stack([u.ravel(), v.ravel()], 1), n.reshape(-1, 3), name="m",
-                   material=tx.Material(displacement=disp()))
+    mesh = uv_sphere_mesh(sph, tx.Material(displacement=disp()))
     cam = tx.Camera(eye=(0, 0.5, 3.5), look_at=(0, 0, 0), fov_y=35)
     da, db = (tx.render(tx.Scene(camera=cam, objects=[o], ambient=(1, 1, 1)), 96, 72, 1, device=device,
                         jitter=False, aovs=("depth",), cache=False).aov["depth"][..., 0] for o in (sph, mesh))

@@ -31,7 +31,7 @@ from ..device import layout
 from ..errors import SceneError
 from ..scene.mesh import warn_degenerate
 from .heights import METHOD_ADAPTIVE, METHOD_IDS, height_key, minmax_pyramid, quantize
-from .tessellate_mesh import unit_rows, vertex_normals
+from .tessellate_mesh import check_displaceable, unit_rows, vertex_normals
 
 # The kernels' TX_DISP_TRI_BAND: how far beyond its edges (in barycentrics) a triangle's
 # surface is still evaluated; each footprint is widened by as much.
@@ -71,12 +71,7 @@ def prepare(mesh) -> Shells:
     """The shells of ``mesh``'s searched faces; SceneError for what cannot be displaced,
     NotABound where a shell would not be a true bound."""
     where = f"{mesh.name}: "
-    if mesh.mapping is not None:
-        raise SceneError(f"{where}mapping: a displaced mesh reads its height texture at its own uvs; a projection "
-                         "mapping with displacement is not supported")
-    if mesh.uvs is None:
-        raise SceneError(f"{where}uvs: displacement reads the height texture at the mesh's texture coordinates, "
-                         "and the mesh has none")
+    check_displaceable(mesh)
     p, n = mesh.world()
     p = np.asarray(p, np.float64)
     f = np.asarray(mesh.faces, np.int64)

@@ -30,6 +30,19 @@ MAX_LEVEL = 256                    # lattice cuts per edge at most (256^2 = 6553
 MAX_TRIANGLES = 1 << 24            # the tessellation's size at most: a clear error instead of an exhausted host
 
 
+def check_displaceable(mesh):
+    """SceneError unless the displaced mesh has what displacing it reads, by tessellation or
+    by search (texray.compile.shells): its own uvs (the height texture is read there), no
+    projection mapping."""
+    where = f"{mesh.name}: "
+    if mesh.mapping is not None:
+        raise SceneError(f"{where}mapping: a displaced mesh reads its height texture at its own uvs; a projection "
+                         "mapping with displacement is not supported")
+    if mesh.uvs is None:
+        raise SceneError(f"{where}uvs: displacement reads the height texture at the mesh's texture coordinates, "
+                         "and the mesh has none")
+
+
 def tessellate_mesh(mesh, resolution=None, methods=("tessellate",)) -> Mesh:
     """The displaced surface of ``mesh`` as a new Mesh in world space (see the module
     docstring); faces whose material is not displaced (by one of ``methods``) are kept as
@@ -38,12 +51,7 @@ def tessellate_mesh(mesh, resolution=None, methods=("tessellate",)) -> Mesh:
     ("search",) tessellates a mesh whose search shells would not bound its surface
     (texray.compile.shells)."""
     where = f"{mesh.name}: "
-    if mesh.mapping is not None:
-        raise SceneError(f"{where}mapping: a displaced mesh is tessellated from its own uvs; a projection "
-                         "mapping with displacement is not supported")
-    if mesh.uvs is None:
-        raise SceneError(f"{where}uvs: displacement reads the height texture at the mesh's texture coordinates, "
-                         "and the mesh has none")
+    check_displaceable(mesh)
     res_override = None if resolution is None else V.integer(resolution, "resolution", "tessellate: ", 1,
                                                              MAX_RESOLUTION)
     p, n = mesh.world()
