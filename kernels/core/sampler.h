@@ -13,21 +13,34 @@
  * (w < 2 l); from i >= l (a sample index past the count) a cycle might hold none, so
  * the walk stops after w + 1 steps whatever happens, and the % l keeps the result in
  * range. l <= 1 has the single value 0 (l = 0 would divide by zero). */
+/* One round of Kensler's permutation hash, on i in place: written once for uint and for
+ * the packet's uint vectors (cmj_permute, cmj_permute_packet); p and w are scalars. */
+#define TX_CMJ_ROUND(i, p, w) do {                          \
+        i ^= (p);             i *= 0xe170893du;             \
+        i ^= (p) >> 16;       i ^= (i & (w)) >> 4;          \
+        i ^= (p) >> 8;        i *= 0x0929eb3fu;             \
+        i ^= (p) >> 23;       i ^= (i & (w)) >> 1;          \
+        i *= 1u | (p) >> 27;  i *= 0x6935fa69u;             \
+        i ^= (i & (w)) >> 11; i *= 0x74dcb303u;             \
+        i ^= (i & (w)) >> 2;  i *= 0x9e501cc3u;             \
+        i ^= (i & (w)) >> 2;  i *= 0xc860a3dfu;             \
+        i &= (w);             i ^= i >> 5;                  \
+    } while (0)
+
+/* The mask w = 2^k - 1 >= l - 1 of cmj_permute (l >= 2). */
+inline uint cmj_mask(uint l)
+{
+    uint w = l - 1u;
+    w |= w >> 1; w |= w >> 2; w |= w >> 4; w |= w >> 8; w |= w >> 16;
+    return w;
+}
+
 inline uint cmj_permute(uint i, uint l, uint p)
 {
     if (l <= 1u) return 0u;
-    uint w = l - 1u;
-    w |= w >> 1; w |= w >> 2; w |= w >> 4; w |= w >> 8; w |= w >> 16;
+    uint w = cmj_mask(l);
     for (uint walk = 0u; walk <= w; ++walk) {
-        i ^= p;             i *= 0xe170893du;
-        i ^= p >> 16;       i ^= (i & w) >> 4;
-        i ^= p >> 8;        i *= 0x0929eb3fu;
-        i ^= p >> 23;       i ^= (i & w) >> 1;
-        i *= 1u | p >> 27;  i *= 0x6935fa69u;
-        i ^= (i & w) >> 11; i *= 0x74dcb303u;
-        i ^= (i & w) >> 2;  i *= 0x9e501cc3u;
-        i ^= (i & w) >> 2;  i *= 0xc860a3dfu;
-        i &= w;             i ^= i >> 5;
+        TX_CMJ_ROUND(i, p, w);
         if (i < l) break;
     }
     /* (i + p) % l; a power of two l (w = l - 1) as a mask: the same value without a
@@ -35,14 +48,21 @@ inline uint cmj_permute(uint i, uint l, uint p)
     return w + 1u == l ? (i + p) & w : (i + p) % l;
 }
 
+/* Kensler's randfloat hash, on i in place (uint or uint vectors; p a scalar); the float is
+ * i * 2^-32 (slightly less, so that it stays below 1). */
+#define TX_CMJ_RANDBITS(i, p) do {                          \
+        i ^= (p);          i ^= i >> 17;                    \
+        i ^= i >> 10;      i *= 0xb36534e5u;                \
+        i ^= i >> 12;      i ^= i >> 21;                    \
+        i *= 0x93fc4795u;  i ^= 0xdf6e307fu;                \
+        i ^= i >> 17;      i *= 1u | (p) >> 18;             \
+    } while (0)
+#define TX_CMJ_RANDSCALE (1.0f / 4294967808.0f)
+
 inline float cmj_randfloat(uint i, uint p)
 {
-    i ^= p;          i ^= i >> 17;
-    i ^= i >> 10;    i *= 0xb36534e5u;
-    i ^= i >> 12;    i ^= i >> 21;
-    i *= 0x93fc4795u; i ^= 0xdf6e307fu;
-    i ^= i >> 17;    i *= 1u | p >> 18;
-    return (float)i * (1.0f / 4294967808.0f);
+    TX_CMJ_RANDBITS(i, p);
+    return (float)i * TX_CMJ_RANDSCALE;
 }
 
 /* Sample s in [0, N) of the pattern p, in [0, 1)^2.
@@ -85,6 +105,81 @@ inline float2 cmj_sample(uint s, uint N, uint p)
 {
     return cmj_sample_m(s, N, cmj_grid_m(N), p);
 }
+
+#if TX_PACKET
+/* cmj_sample_m for the TX_PACKET consecutive samples s0, s0 + 1, ... of one pixel, one
+ * per lane (stages/fused.cl's chunk of camera rays): the same integer hashes and the same
+ * float operations, one statement each as in the scalar code (FP contraction, which this
+ * file allows, fuses only within a statement), so every lane's position is cmj_sample_m's
+ * bit for bit (tests/kernels/test_sampler.py). In the scalar code the three permutations
+ * and the divisions by m took 8-16% of a frame (perf, globe and quads at 4-16 spp). */
+#define TX_CMJ_VT(t) TX_CMJ_VT_(t, TX_PACKET)
+#define TX_CMJ_VT_(t, n) TX_CMJ_VT__(t, n)
+#define TX_CMJ_VT__(t, n) t##n
+typedef TX_CMJ_VT(uint) cmj_uint;
+typedef TX_CMJ_VT(int) cmj_int;
+typedef TX_CMJ_VT(float) cmj_float;
+#if TX_PACKET == 16
+#define TX_CMJ_LANE_IDS (cmj_uint)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u, 8u, 9u, 10u, 11u, 12u, 13u, 14u, 15u)
+#else
+#define TX_CMJ_LANE_IDS (cmj_uint)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u)
+#endif
+
+/* cmj_permute lane by lane: a lane's walk stops where the scalar one breaks (its value
+ * kept, selected by bit operations: see accel/packet.h PSEL_I), the loop when every lane
+ * has stopped or after the same w + 1 steps. */
+inline cmj_uint cmj_permute_packet(cmj_uint i, uint l, uint p)
+{
+    if (l <= 1u) return (cmj_uint)(0u);
+    uint w = cmj_mask(l);
+    cmj_uint done = (cmj_uint)(0u);
+    for (uint walk = 0u; walk <= w; ++walk) {
+        cmj_uint j = i;
+        TX_CMJ_ROUND(j, p, w);
+        i = (i & done) | (j & ~done);
+        done |= TX_CMJ_VT(as_uint)(i < (cmj_uint)(l));
+        if (all(TX_CMJ_VT(as_int)(done))) break;
+    }
+    return w + 1u == l ? (i + p) & w : (i + p) % l;
+}
+
+/* s / m and s % m lane by lane; a power of two m (every power-of-two N) as a shift and a
+ * mask, the same values without a division per lane. (log2 m from the float's exponent, and
+ * no (m & (m - 1)) == 0, which LLVM turns into llvm.ctpop: Oclgrind 21.10 cannot run it.) */
+inline void cmj_divmod_packet(cmj_uint s, uint m, cmj_uint* q, cmj_uint* r)
+{
+    uint k = (as_uint((float)m) >> 23) - 127u;         /* floor(log2 m): m <= 65535 is exact in float */
+    if (m == 1u << k) {
+        *q = s >> k;
+        *r = s & (m - 1u);
+    } else {
+        *q = s / m;
+        *r = s % m;
+    }
+}
+
+/* Samples s0 + lane of pattern p (cmj_sample_m's N, m) into x[lane], y[lane]. */
+inline void cmj_sample_packet(uint s0, uint N, uint m, uint p, float* x, float* y)
+{
+    uint n = N / m;
+    uint pn = p * 0x51633e2du, px = p * 0x68bc21ebu, py = p * 0x02e5be93u;
+    uint pjx = p * 0x967a889bu, pjy = p * 0x368cc8b7u;
+    cmj_uint s = cmj_permute_packet((cmj_uint)(s0) + TX_CMJ_LANE_IDS, N, pn);
+    cmj_uint sd, sm;
+    cmj_divmod_packet(s, m, &sd, &sm);
+    cmj_uint sx = cmj_permute_packet(sm, m, px);
+    cmj_uint sy = cmj_permute_packet(sd, n, py);
+    cmj_uint bx = s, by = s;
+    TX_CMJ_RANDBITS(bx, pjx);
+    TX_CMJ_RANDBITS(by, pjy);
+    cmj_float jx = TX_CMJ_VT(convert_float)(bx) * TX_CMJ_RANDSCALE;
+    cmj_float jy = TX_CMJ_VT(convert_float)(by) * TX_CMJ_RANDSCALE;
+    cmj_float fx = (TX_CMJ_VT(convert_float)(sm) + (TX_CMJ_VT(convert_float)(sy) + jx) / (float)n) / (float)m;
+    cmj_float fy = (TX_CMJ_VT(convert_float)(sd) + (TX_CMJ_VT(convert_float)(sx) + jy) / (float)m) / (float)n;
+    TX_CMJ_VT(vstore)(fx, 0, x);
+    TX_CMJ_VT(vstore)(fy, 0, y);
+}
+#endif
 
 inline uint hash_u32(uint x)
 {

@@ -77,6 +77,14 @@ inline int sphere_intersect(__global const Sphere* s, float3 org, float3 dir, fl
 {
     float4 cr = sphere_center_radius(s);
     if (!(cr.w > 0.0f && dot3(dir, dir) > 0.0f)) return 0;
+    /* Decided before the cross product and the roots: a ray that starts outside the sphere
+     * (c > 0) and leads away from its centre (b > 0), as sphere_ray computes c and b, has
+     * q = -(b + root) < 0 there, so both roots c/q and q/a are negative (or -0) whatever
+     * the discriminant: a miss for tmin >= 0, the same answer sphere_ray's roots give. This
+     * is every shadow ray that leaves a lit sphere toward its light. */
+    float3 fh, fl;
+    tx_two_diff3(org, cr.xyz, &fh, &fl);
+    if (tmin >= 0.0f && dot3(fh, dir) > 0.0f && sphere_c(fh, fl, cr.w) > 0.0f) return 0;
     SphereRay sr = sphere_ray(cr.xyz, cr.w, org, dir);
     if (!(sr.disc >= 0.0f)) return 0;
     if (sr.roots.near_ok && sr.roots.t_near > tmin && sr.roots.t_near < tmax) {

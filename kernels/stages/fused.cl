@@ -45,11 +45,13 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
         PacketRay pr;
         int act[TX_CHUNK];
         float3 rorg[TX_CHUNK], rdir[TX_CHUNK];      /* the rays (an invalid one is traced as none) */
+        float jx[TX_CHUNK], jy[TX_CHUNK];            /* the samples' positions in the pixel */
+        if (jitter) cmj_sample_packet(sample0 + k0, spp, grid_m, pattern, jx, jy);
         for (uint j = 0; j < (uint)TX_CHUNK; ++j) {
             float3 org = (float3)(0.0f), dir = (float3)(0.0f, 0.0f, 1.0f);   /* lanes not traced */
             act[j] = 0;
             if (j < m) {
-                float2 jit = jitter ? cmj_sample_m(sample0 + k0 + j, spp, grid_m, pattern) : (float2)(0.5f, 0.5f);
+                float2 jit = jitter ? (float2)(jx[j], jy[j]) : (float2)(0.5f, 0.5f);
                 float3 o, d;
                 camera_ray(cam, image_w, image_h, px, py, jit, &o, &d);
                 rorg[j] = o; rdir[j] = d;
