@@ -21,9 +21,10 @@
  *   ends with bvh_closest's hit bit for bit, except where two triangles' hits lie within
  *   the box tests' rounding of each other (a ray through a shared vertex or edge): then the
  *   order may decide which of the two (at the same t to within an ulp or two) is kept.
- * Leaves of the other kinds (spheres, cylinders, quads, displaced shapes, instances) are
- * tested lane by lane by the scalar leaf_hit (geometry/dispatch.h), so every kind keeps one
- * intersector; closest-hit packets leave instanced scenes (hits carry the instance) to the
+ * Quads are tested one at a time against the whole packet too (geometry/quad_packet.h: the
+ * scalar quad test's arithmetic per lane, so the same hits bit for bit). Leaves of the
+ * other kinds (spheres, cylinders, displaced shapes, instances) are tested lane by lane by
+ * the scalar leaf_hit (geometry/dispatch.h); closest-hit packets leave instanced scenes (hits carry the instance) to the
  * scalar traversal. The host compiles packets in only where they measured faster
  * (texray.device.features.packet_width). */
 #ifndef TEXRAY_PACKET_H
@@ -62,6 +63,7 @@ typedef struct {
     float org[3][TX_PACKET], dir[3][TX_PACKET], range[2][TX_PACKET];
     pfloat tmin, tmax;
     pfloat ox, oy, oz;
+    pfloat dx, dy, dz;
     pfloat ivx, ivy, ivz;
     pint nx, ny, nz, par;
     pfloat rxx, rxy, rxz, ryx, ryy, ryz, rzx, rzy, rzz;
@@ -103,6 +105,7 @@ inline void packet_setup(PacketRay* r)
     pfloat dx = (pfloat)(TX_LANES(r->dir[0])), dy = (pfloat)(TX_LANES(r->dir[1])), dz = (pfloat)(TX_LANES(r->dir[2]));
     r->tmin = (pfloat)(TX_LANES(r->range[0])); r->tmax = (pfloat)(TX_LANES(r->range[1]));
     r->ox = (pfloat)(TX_LANES(r->org[0])); r->oy = (pfloat)(TX_LANES(r->org[1])); r->oz = (pfloat)(TX_LANES(r->org[2]));
+    r->dx = dx; r->dy = dy; r->dz = dz;
     r->ivx = safe_inverse_p(dx); r->ivy = safe_inverse_p(dy); r->ivz = safe_inverse_p(dz);
     r->par = (fabs(r->ivx) >= TX_PARALLEL_INV) | (fabs(r->ivy) >= TX_PARALLEL_INV) | (fabs(r->ivz) >= TX_PARALLEL_INV);
     r->nx = r->ivx < 0.0f; r->ny = r->ivy < 0.0f; r->nz = r->ivz < 0.0f;
@@ -126,6 +129,10 @@ inline void packet_setup(PacketRay* r)
     r->ryz = PSEL_F(Y2, one, zero) - sy * uzz;
     r->rzx = sz * uzx; r->rzy = sz * uzy; r->rzz = sz * uzz;
 }
+
+#if TX_QUADS
+#include "geometry/quad_packet.h"     /* quad_intersect_packet: needs PacketRay and the lane selects */
+#endif
 
 /* box4_entry (accel/bvh.h) for one box and every lane, each with its interval
  * (r->tmin, tmax): the entry distance, INFINITY for a miss; lanes in m that are parallel to
@@ -204,8 +211,8 @@ inline pint triangle_any_packet(const PacketRay* r, __global const TriVerts* tv,
     return triangle_packet(r, tv, m, r->tmax, (pint)(0), &t, &b1, &b2);
 }
 
-/* The leaf (first, ck) against the lanes m: the lanes with a hit. Triangles one at a time
- * against the packet; every other kind lane by lane through leaf_hit. */
+/* The leaf (first, ck) against the lanes m: the lanes with a hit. Triangles and quads one at
+ * a time against the packet; every other kind lane by lane through leaf_hit. */
 inline pint leaf_any_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint ck, pint m)
 {
     uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
@@ -218,6 +225,18 @@ inline pint leaf_any_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint
         }
         return hit;
     }
+#if TX_QUADS
+    if (kind == PRIM_QUAD) {
+        for (uint i = first; i < end; ++i) {
+            __global const QuadVerts* qv = quads + i;
+            pfloat t, u, v;
+            hit |= quad_intersect_packet(r, quad_p0(qv), quad_p1(qv), quad_p2(qv), quad_p3(qv), m & ~hit, r->tmax,
+                                         &t, &u, &v);
+            if (!any(m & ~hit)) break;
+        }
+        return hit;
+    }
+#endif
     int ml[TX_PACKET], hl[TX_PACKET];
     PSTORE(m, ml);
     for (int j = 0; j < TX_PACKET; ++j) {
@@ -304,8 +323,8 @@ inline void triangle_closest_packet(const PacketRay* r, __global const TriVerts*
     h->prim = PSEL_I(ok, (pint)(index), h->prim);
 }
 
-/* The leaf (first, ck) against the lanes m, nearer hits updating h: triangles one at a time
- * against the packet; every other kind lane by lane through leaf_hit. */
+/* The leaf (first, ck) against the lanes m, nearer hits updating h: triangles and quads one
+ * at a time against the packet; every other kind lane by lane through leaf_hit. */
 inline void leaf_closest_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint ck, pint m, PacketHit* h)
 {
     uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
@@ -315,6 +334,21 @@ inline void leaf_closest_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, 
             triangle_closest_packet(r, tris + first + k, first + k, m, h);
         return;
     }
+#if TX_QUADS
+    if (kind == PRIM_QUAD) {
+        for (uint i = first; i < end; ++i) {
+            __global const QuadVerts* qv = quads + i;
+            pfloat t, u, v;
+            pint ok = quad_intersect_packet(r, quad_p0(qv), quad_p1(qv), quad_p2(qv), quad_p3(qv), m, h->t,
+                                            &t, &u, &v);
+            h->t = PSEL_F(ok, t, h->t);
+            h->b1 = PSEL_F(ok, u, h->b1);
+            h->b2 = PSEL_F(ok, v, h->b2);
+            h->prim = PSEL_I(ok, (pint)((int)((PRIM_QUAD << HIT_KIND_SHIFT) | i)), h->prim);
+        }
+        return;
+    }
+#endif
     float ht[TX_PACKET], hb1[TX_PACKET], hb2[TX_PACKET];
     int hp[TX_PACKET], ml[TX_PACKET];
     PSTORE(h->t, ht); PSTORE(h->b1, hb1); PSTORE(h->b2, hb2); PSTORE(h->prim, hp); PSTORE(m, ml);

@@ -3,7 +3,7 @@
  * for PoCL devices only, texray.device.opencl). PoCL links its builtin library as code
  * built for a generic CPU, and LLVM does not inline a function whose target features
  * differ from its caller's, so every fabs, floor, fma, nextafter, copysign, sqrt, rsqrt,
- * vload3 and any in a kernel was a call (perf on the globe scene: 10% of the frame in them).
+ * vload3, any and all in a kernel was a call (perf on the globe scene: 10% of the frame in them).
  * Each replacement returns the very same float as PoCL's builtin for every input
  * (IEEE-754 defines all but rsqrt exactly, and PoCL's rsqrt is 1 / sqrt), so images
  * keep their bits (tests/kernels/test_builtins.py compares them on a million inputs). PoCL's
@@ -28,7 +28,21 @@ inline float tx_floor(float x) { return __builtin_floorf(x); }
 #undef floor
 #define floor tx_floor
 #if defined(__FMA__)
-inline float tx_fma(float a, float b, float c) { return __builtin_fmaf(a, b, c); }
+__attribute__((overloadable)) inline float tx_fma(float a, float b, float c) { return __builtin_fmaf(a, b, c); }
+/* The packets' vectors (accel/packet.h) lane by lane; LLVM joins the lanes into one vfmadd. */
+__attribute__((overloadable)) inline float4 tx_fma(float4 a, float4 b, float4 c)
+{
+    return (float4)(__builtin_fmaf(a.x, b.x, c.x), __builtin_fmaf(a.y, b.y, c.y), __builtin_fmaf(a.z, b.z, c.z),
+                    __builtin_fmaf(a.w, b.w, c.w));
+}
+__attribute__((overloadable)) inline float8 tx_fma(float8 a, float8 b, float8 c)
+{
+    return (float8)(tx_fma(a.lo, b.lo, c.lo), tx_fma(a.hi, b.hi, c.hi));
+}
+__attribute__((overloadable)) inline float16 tx_fma(float16 a, float16 b, float16 c)
+{
+    return (float16)(tx_fma(a.lo, b.lo, c.lo), tx_fma(a.hi, b.hi, c.hi));
+}
 #undef fma
 #define fma tx_fma
 #endif
@@ -48,18 +62,34 @@ inline float tx_nextafter(float x, float y)
 #define nextafter tx_nextafter
 
 /* copysign: x's magnitude bits with y's sign bit. */
-inline float tx_copysign(float x, float y)
+__attribute__((overloadable)) inline float tx_copysign(float x, float y)
 {
     return as_float((as_uint(x) & 0x7fffffffu) | (as_uint(y) & 0x80000000u));
+}
+__attribute__((overloadable)) inline float8 tx_copysign(float8 x, float8 y)
+{
+    return as_float8((as_uint8(x) & 0x7fffffffu) | (as_uint8(y) & 0x80000000u));
+}
+__attribute__((overloadable)) inline float16 tx_copysign(float16 x, float16 y)
+{
+    return as_float16((as_uint16(x) & 0x7fffffffu) | (as_uint16(y) & 0x80000000u));
 }
 #undef copysign
 #define copysign tx_copysign
 
 /* sqrt (correctly rounded: sqrtss) and rsqrt as PoCL computes it, 1 / sqrt(x). */
 __attribute__((overloadable)) inline float tx_sqrt(float x) { return __builtin_sqrtf(x); }
+__attribute__((overloadable)) inline float4 tx_sqrt(float4 x)
+{
+    return (float4)(__builtin_sqrtf(x.x), __builtin_sqrtf(x.y), __builtin_sqrtf(x.z), __builtin_sqrtf(x.w));
+}
+__attribute__((overloadable)) inline float8 tx_sqrt(float8 x) { return (float8)(tx_sqrt(x.lo), tx_sqrt(x.hi)); }
+__attribute__((overloadable)) inline float16 tx_sqrt(float16 x) { return (float16)(tx_sqrt(x.lo), tx_sqrt(x.hi)); }
 #undef sqrt
 #define sqrt tx_sqrt
 __attribute__((overloadable)) inline float tx_rsqrt(float x) { return 1.0f / __builtin_sqrtf(x); }
+__attribute__((overloadable)) inline float8 tx_rsqrt(float8 x) { return 1.0f / tx_sqrt(x); }
+__attribute__((overloadable)) inline float16 tx_rsqrt(float16 x) { return 1.0f / tx_sqrt(x); }
 #undef rsqrt
 #define rsqrt tx_rsqrt
 
@@ -73,6 +103,12 @@ __attribute__((overloadable)) inline int tx_any(int8 v) { return tx_any(v.lo | v
 __attribute__((overloadable)) inline int tx_any(int16 v) { return tx_any(v.lo | v.hi); }
 #undef any
 #define any tx_any
+/* all(intN): every lane's sign bit set (core/sampler.h's lane masks). */
+__attribute__((overloadable)) inline int tx_all(int4 v) { return (v.x & v.y & v.z & v.w) < 0; }
+__attribute__((overloadable)) inline int tx_all(int8 v) { return tx_all(v.lo & v.hi); }
+__attribute__((overloadable)) inline int tx_all(int16 v) { return tx_all(v.lo & v.hi); }
+#undef all
+#define all tx_all
 
 /* vload_half4 stays PoCL's call: an inline bitwise widening (exact on all 65536 halves)
  * measured slower than PoCL's code (tools/ab.py, textured scenes: 1.03-1.09x). */

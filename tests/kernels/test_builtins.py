@@ -50,6 +50,28 @@ __kernel void unary(__global const float* x, __global const float* y, __global f
     o[15] = w.x + w.y;
 }
 
+/* The float8 and float16 versions (the packets' vectors), lane by lane against PoCL's scalar
+ * builtin: each work-item takes 16 consecutive pairs. */
+__kernel void vector(__global const float* x, __global const float* y, __global float* out, uint n)
+{
+    uint i = get_global_id(0);
+    if (16 * i + 16 > n) return;
+    float16 a = vload16(i, x), b = vload16(i, y), c = vload16(i, y + 1);
+    float8 a8 = a.lo, b8 = b.lo, c8 = c.lo;
+    float16 r[4] = { fma(a, b, c), copysign(a, b), sqrt(a), rsqrt(a) };
+    float8 r8[4] = { fma(a8, b8, c8), copysign(a8, b8), sqrt(a8), rsqrt(a8) };
+    __global float* o = out + 16 * 12 * i;
+    for (int k = 0; k < 4; ++k) {
+        vstore16(r[k], 0, o + 48 * k);
+        vstore8(r8[k], 0, o + 48 * k + 16);
+    }
+    for (int j = 0; j < 16; ++j) {
+        float aj = x[16 * i + j], bj = y[16 * i + j], cj = y[16 * i + j + 1];
+        o[32 + j] = _cl_fma(aj, bj, cj); o[80 + j] = _cl_copysign(aj, bj);
+        o[128 + j] = _cl_sqrt(aj); o[176 + j] = _cl_rsqrt(aj);
+    }
+}
+
 """
 
 _SPECIAL = np.array([0.0, -0.0, 1e-45, -1e-45, 1.1754942e-38, 1.1754944e-38, -1.1754944e-38, 0.5, 1.0, -1.0,
@@ -89,6 +111,31 @@ def test_pocl_inline_builtins_keep_the_bits(rt, rng):
         bad = (mine != theirs) & ~both_nan
         assert not bad.any(), (f"{name}: {bad.sum()} inputs differ, e.g. x={x[bad][:3]} y={y[bad][:3]}: "
                                f"{out[bad, 2 * j][:3]} vs builtin {out[bad, 2 * j + 1][:3]}")
+
+
+def test_pocl_vector_builtins_keep_the_bits(rt, rng):
+    """fma, copysign, sqrt and rsqrt on float8 and float16 (core/builtins.h) give PoCL's
+    scalar builtin's bits in every lane."""
+    if "-DTX_POCL=1" not in rt.device_defines:
+        pytest.skip("core/builtins.h replaces builtins on PoCL only")
+    x, y = _pairs(rng, 1 << 18)
+    n = len(x) // 16 * 16
+    x, y = x[:n], np.concatenate([y[:n], y[:1]])
+    k = build_test_program(rt, (), _POCL_KERNELS)
+    mf = cl.mem_flags
+    bx = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
+    by = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=y)
+    out = np.zeros(n * 12, np.float32)
+    bo = cl.Buffer(rt.context, mf.WRITE_ONLY, out.nbytes)
+    k.vector(rt.queue, (n // 16,), None, bx, by, bo, np.uint32(n))
+    cl.enqueue_copy(rt.queue, out, bo)
+    out = out.reshape(n // 16, 4, 3, 16)            # (group, function, [float16, float8 (8 lanes), PoCL's], lane)
+    for f, name in enumerate(["fma", "copysign", "sqrt", "rsqrt"]):
+        theirs = out[:, f, 2]
+        for got, lanes in ((out[:, f, 0], 16), (out[:, f, 1, :8], 8)):
+            want = theirs[:, :lanes]
+            bad = (got.view(np.uint32) != want.view(np.uint32)) & ~(np.isnan(got) & np.isnan(want))
+            assert not bad.any(), f"{name} on {lanes} lanes: {bad.sum()} inputs differ"
 
 
 def _ulps(got, want):

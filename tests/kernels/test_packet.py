@@ -167,6 +167,42 @@ def test_packets_test_other_kinds_lane_by_lane(device, rng, monkeypatch):
     assert 0.1 < occ.mean() < 0.95
 
 
+def test_packet_quads_equal_the_scalar_patch_test(device, rng, monkeypatch):
+    """Quads are tested against whole packets (geometry/quad_packet.h): t, the patch's (u, v)
+    and the quad hit equal quad_intersect_corners' per ray, bit for bit, on a rectangle, a
+    twisted (saddle) patch, a trapezoid and a bow-tie, for
+    incoherent rays, coherent bundles, and rays grazing the rectangle along both of its
+    edge directions (the per-lane transposition)."""
+    scene = tx.Scene()
+    scene.add(tx.Quad((-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)))
+    scene.add(tx.Quad((-0.5, -0.5, 1.0), (0.5, -0.5, 1.3), (0.5, 0.5, 1.0), (-0.5, 0.5, 1.3)))    # saddle
+    scene.add(tx.Quad((1.2, -1, 0.5), (2.4, -1, 0.5), (2.0, 0, 0.9), (1.6, 0, 0.9)))              # trapezoid
+    scene.add(tx.Quad((-2.4, -1, 0.2), (-1.2, 0, 0.2), (-1.2, -1, 0.6), (-2.4, 0, 0.6)))          # bow-tie
+    tr = _tracers(monkeypatch, scene, device)
+    n = 4000
+    org = rng.uniform(-2.5, 2.5, (n, 3)) + np.array([0, 0, 1.5])
+    d = rng.normal(0, 1, (n, 3)) * 4
+    _assert_same(tr, org, d)
+    bo, bd = _shadow_bundles(rng, 200, (0.2, 0.1, 4.0), spread=0.05)
+    _assert_same(tr, bo + np.array([0, 0, -1.5]), bd)
+    # grazing the rectangle at z = 0: 1e-3 to 1e-6 out of its plane, along x and along y
+    k = 2000
+    g = rng.uniform(-0.9, 0.9, (k, 3))
+    slope = 10.0 ** rng.uniform(-6, -3, k) * rng.choice([-1, 1], k)
+    along_x = np.stack([np.full(k, 1.0), rng.uniform(-0.1, 0.1, k), slope], axis=1)
+    along_y = along_x[:, [1, 0, 2]]
+    for dirs in (along_x, along_y):
+        o = np.stack([g[:, 0], g[:, 1], np.zeros(k)], axis=1) - 0.5 * dirs
+        _assert_same(tr, o, dirs * 2)
+    # from just off the rectangle, toward it and away (the hits near t = 0 that the patch
+    # test's t_floor rejects or keeps)
+    o = np.concatenate([g[:, :2], 10.0 ** rng.uniform(-6, -3, (k, 1)) * rng.choice([-1, 1], (k, 1))], axis=1)
+    _assert_same(tr, o, rng.normal(0, 1, (k, 3)))
+    href = tr[0].closest(org.astype(np.float32), d.astype(np.float32), 0.0, np.float32(2.0))
+    kinds = href.prim[href.prim >= 0]
+    assert len(np.unique(kinds)) >= 3, "the rays should hit several of the quads"
+
+
 def test_rendered_images_do_not_depend_on_the_packet_width(device, monkeypatch):
     """The fused kernel with packets: the same image bit for bit at every width, with spp
     not a multiple of the width, three lights (one under the floor), smooth normals (the

@@ -23,7 +23,7 @@ def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
     options = compile_options(f)
     if which.startswith("packet"):     # shadow-ray packets (accel/packet.h), on any device
         f = Features(textures=True, vertex_normals=True, specular=True, filter_bilinear=True, max_lights=2,
-                     stack_size=32)
+                     stack_size=32, quads=True, spheres=True)      # quads: geometry/quad_packet.h
         options = {**compile_options(f), "TX_PACKET": int(which.removeprefix("packet"))}
     prg = any_rt.program(options, extra_options=("-Werror",))
     names = set(prg.get_info(cl.program_info.KERNEL_NAMES).split(";"))

@@ -1,0 +1,129 @@
+#line 2 "geometry/quad_packet.h"
+/* geometry/quad.h's quad_intersect_corners for every lane of a ray packet (accel/packet.h):
+ * one patch against TX_PACKET rays as floatN arithmetic, for the packet traversals' quad
+ * leaves (the bilinear patch test took a quarter of a bump-mapped brick wall's frame, lane
+ * by lane).
+ *
+ * The same formulas in the same order as the scalar code, with its roundings: FP
+ * contraction off as there (core/accurate.h), dot3 and cross3 as core/common.h compiles
+ * them (contraction on: the helpers below sit in a block that turns it on), and Kahan's
+ * products and TwoSum with the same explicit fma and additions. The per-lane choices of
+ * the scalar code (the transposition, the roots' order and their acceptance) are lane
+ * masks, so each lane's hit, t and (u, v) are quad_intersect_corners', bit for bit
+ * (tests/kernels/test_packet.py compares them ray by ray, and every scene's image is
+ * unchanged). */
+#ifndef TEXRAY_QUAD_PACKET_H
+#define TEXRAY_QUAD_PACKET_H
+#include "geometry/quad.h"
+
+/* A 3-vector per lane. */
+typedef struct {
+    pfloat x, y, z;
+} pfloat3;
+
+inline pfloat3 pf3(pfloat x, pfloat y, pfloat z) { pfloat3 v = { x, y, z }; return v; }
+inline pfloat3 pf3_splat(float3 a) { return pf3((pfloat)(a.x), (pfloat)(a.y), (pfloat)(a.z)); }
+inline pfloat3 pf3_add(pfloat3 a, pfloat3 b) { return pf3(a.x + b.x, a.y + b.y, a.z + b.z); }
+inline pfloat3 pf3_sub(pfloat3 a, pfloat3 b) { return pf3(a.x - b.x, a.y - b.y, a.z - b.z); }
+inline pfloat3 pf3_scale(pfloat s, pfloat3 a) { return pf3(s * a.x, s * a.y, s * a.z); }
+inline pfloat3 pf3_abs(pfloat3 a) { return pf3(fabs(a.x), fabs(a.y), fabs(a.z)); }
+inline pfloat3 pf3_max(pfloat3 a, pfloat3 b) { return pf3(PMAX(a.x, b.x), PMAX(a.y, b.y), PMAX(a.z, b.z)); }
+inline pfloat3 pf3_sel(pint c, pfloat3 a, pfloat3 b)
+{
+    return pf3(PSEL_F(c, a.x, b.x), PSEL_F(c, a.y, b.y), PSEL_F(c, a.z, b.z));
+}
+
+#pragma OPENCL FP_CONTRACT ON
+/* core/common.h's dot3 and cross3, compiled as they are there (contraction on). */
+inline pfloat pf3_dot(pfloat3 a, pfloat3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline pfloat3 pf3_cross(pfloat3 a, pfloat3 b)
+{
+    return pf3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+#pragma OPENCL FP_CONTRACT OFF
+
+/* core/accurate.h's tx_diff_prod, tx_cross_accurate and tx_two_diff3, lane by lane. */
+inline pfloat pf_diff_prod(pfloat a, pfloat b, pfloat c, pfloat d)
+{
+    pfloat cd = c * d;
+    pfloat err = fma(-c, d, cd);
+    return fma(a, b, -cd) + err;
+}
+inline pfloat3 pf3_cross_accurate(pfloat3 a, pfloat3 b)
+{
+    return pf3(pf_diff_prod(a.y, b.z, a.z, b.y), pf_diff_prod(a.z, b.x, a.x, b.z), pf_diff_prod(a.x, b.y, a.y, b.x));
+}
+inline void pf3_two_diff(pfloat3 a, pfloat3 b, pfloat3* hi, pfloat3* lo)
+{
+    pfloat3 s = pf3_sub(a, b);
+    pfloat3 bb = pf3_sub(s, a);
+    pfloat3 nb = pf3(-b.x, -b.y, -b.z);
+    *lo = pf3_add(pf3_sub(a, pf3_sub(s, bb)), pf3_sub(nb, bb));
+    *hi = s;
+}
+
+/* quad_try_root for every lane: lanes of `m` whose root u gives a hit with t in
+ * (max(tmin, t_floor), best_t) take it into *best_t, *best_u, *best_v; returns them. */
+inline pint quad_try_root_packet(pint m, pfloat u, pfloat3 q00, pfloat3 q10, pfloat3 w0, pfloat3 w1, pfloat3 e00,
+                                 pfloat3 e11, pfloat3 dir, pfloat tmin, pfloat t_floor, pfloat* best_t,
+                                 pfloat* best_u, pfloat* best_v)
+{
+    m &= (u >= 0.0f) & (u <= 1.0f);
+    if (!any(m)) return m;
+    pfloat3 pa = pf3_add(q00, pf3_scale(u, pf3_sub(q10, q00)));
+    pfloat3 pb = pf3_add(e00, pf3_scale(u, pf3_sub(e11, e00)));
+    pfloat3 pa_x_dir = pf3_add(w0, pf3_scale(u, pf3_sub(w1, w0)));
+    pfloat3 n = pf3_cross(dir, pb);
+    pfloat det = pf3_dot(n, n);
+    pfloat tn = pf3_dot(n, pf3_cross(pa, pb)), vn = pf3_dot(n, pa_x_dir);
+    m &= (det > 0.0f) & (vn >= 0.0f) & (vn <= det);
+    pfloat t = tn / det;
+    m &= (t > tmin) & (t > t_floor) & (t < *best_t);
+    *best_t = PSEL_F(m, t, *best_t);
+    *best_u = PSEL_F(m, u, *best_u);
+    *best_v = PSEL_F(m, vn / det, *best_v);
+    return m;
+}
+
+/* quad_intersect_corners(p0, p1, p2, p3, org, dir, tmin, tmax) for the lanes m of the
+ * packet, tmax per lane: the lanes with a hit; their t and uv into *t, *u, *v. */
+inline pint quad_intersect_packet(const PacketRay* r, float3 c0, float3 c1, float3 c2, float3 c3, pint m,
+                                  pfloat tmax, pfloat* t, pfloat* u, pfloat* v)
+{
+    pfloat3 org = pf3(r->ox, r->oy, r->oz), dir = pf3(r->dx, r->dy, r->dz);
+    pfloat3 eu = pf3_splat((c1 - c0) + (c2 - c3)), ev = pf3_splat((c3 - c0) + (c2 - c1));
+    pfloat3 du = pf3_cross(dir, eu), dv = pf3_cross(dir, ev);
+    pint swap = pf3_dot(dv, dv) / pf3_dot(ev, ev) < pf3_dot(du, du) / pf3_dot(eu, eu);
+    pfloat3 p0 = pf3_splat(c0), p2 = pf3_splat(c2);
+    pfloat3 p1 = pf3_sel(swap, pf3_splat(c3), pf3_splat(c1)), p3 = pf3_sel(swap, pf3_splat(c1), pf3_splat(c3));
+    pfloat3 q00, q10, l00, l10;
+    pf3_two_diff(p0, org, &q00, &l00);
+    pf3_two_diff(p1, org, &q10, &l10);
+    pfloat3 w0 = pf3_add(pf3_cross_accurate(q00, dir), pf3_cross(l00, dir));
+    pfloat3 w1 = pf3_add(pf3_cross_accurate(q10, dir), pf3_cross(l10, dir));
+    pfloat3 e00 = pf3_sub(p3, p0), e11 = pf3_sub(p2, p1);
+    pfloat k2 = pf3_dot(pf3_cross(pf3_sub(p1, p0), pf3_sub(p3, p2)), dir);
+    pfloat k0 = pf3_dot(w0, e00);
+    pfloat k1 = pf3_dot(w1, e11) - k0 - k2;
+    pfloat b = 0.5f * k1;
+    pfloat disc = pf_diff_prod(b, b, k2, k0);                 /* quadratic_disc */
+    m &= disc >= 0.0f;
+    if (!any(m)) return m;
+    /* stable_roots(k2, b, k0, sqrt(disc), 1) */
+    pfloat q = -(b + copysign(sqrt(disc), b));
+    pfloat t_small = k0 / q, t_large = q / k2;
+    pint small_first = t_small <= t_large;
+    pfloat t_near = PSEL_F(small_first, t_small, t_large), t_far = PSEL_F(small_first, t_large, t_small);
+    pfloat3 mx = pf3_max(pf3_max(pf3_abs(q00), pf3_abs(q10)), pf3_max(pf3_abs(pf3_sub(p2, org)),
+                                                                      pf3_abs(pf3_sub(p3, org))));
+    pfloat t_floor = gamma_n(8.0f) * PMAX(PMAX(mx.x, mx.y), mx.z) * rsqrt(pf3_dot(dir, dir));
+    pfloat bt = tmax, bu = (pfloat)(0.0f), bv = (pfloat)(0.0f);
+    pint hit = quad_try_root_packet(m, t_near, q00, q10, w0, w1, e00, e11, dir, r->tmin, t_floor, &bt, &bu, &bv);
+    hit |= quad_try_root_packet(m, t_far, q00, q10, w0, w1, e00, e11, dir, r->tmin, t_floor, &bt, &bu, &bv);
+    *t = bt;
+    *u = PSEL_F(swap, bv, bu);
+    *v = PSEL_F(swap, bu, bv);
+    return hit;
+}
+
+#endif
