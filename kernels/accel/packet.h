@@ -21,9 +21,9 @@
  *   ends with bvh_closest's hit bit for bit, except where two triangles' hits lie within
  *   the box tests' rounding of each other (a ray through a shared vertex or edge): then the
  *   order may decide which of the two (at the same t to within an ulp or two) is kept.
- * Quads are tested one at a time against the whole packet too (geometry/quad_packet.h: the
- * scalar quad test's arithmetic per lane, so the same hits bit for bit). Leaves of the
- * other kinds (spheres, cylinders, displaced shapes, instances) are tested lane by lane by
+ * Quads and spheres are tested one at a time against the whole packet too (geometry/
+ * quad_packet.h, sphere_packet.h: the scalar tests' arithmetic per lane, so the same hits
+ * bit for bit). Leaves of the other kinds (cylinders, displaced shapes, instances) are tested lane by lane by
  * the scalar leaf_hit (geometry/dispatch.h); closest-hit packets leave instanced scenes (hits carry the instance) to the
  * scalar traversal. The host compiles packets in only where they measured faster
  * (texray.device.features.packet_width). */
@@ -133,6 +133,9 @@ inline void packet_setup(PacketRay* r)
 #if TX_QUADS
 #include "geometry/quad_packet.h"     /* quad_intersect_packet: needs PacketRay and the lane selects */
 #endif
+#if TX_SPHERES
+#include "geometry/sphere_packet.h"   /* sphere_intersect_packet */
+#endif
 
 /* box4_entry (accel/bvh.h) for one box and every lane, each with its interval
  * (r->tmin, tmax): the entry distance, INFINITY for a miss; lanes in m that are parallel to
@@ -211,8 +214,8 @@ inline pint triangle_any_packet(const PacketRay* r, __global const TriVerts* tv,
     return triangle_packet(r, tv, m, r->tmax, (pint)(0), &t, &b1, &b2);
 }
 
-/* The leaf (first, ck) against the lanes m: the lanes with a hit. Triangles and quads one at
- * a time against the packet; every other kind lane by lane through leaf_hit. */
+/* The leaf (first, ck) against the lanes m: the lanes with a hit. Triangles, quads and spheres
+ * one at a time against the packet; every other kind lane by lane through leaf_hit. */
 inline pint leaf_any_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint ck, pint m)
 {
     uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
@@ -232,6 +235,16 @@ inline pint leaf_any_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint
             pfloat t, u, v;
             hit |= quad_intersect_packet(r, quad_p0(qv), quad_p1(qv), quad_p2(qv), quad_p3(qv), m & ~hit, r->tmax,
                                          &t, &u, &v);
+            if (!any(m & ~hit)) break;
+        }
+        return hit;
+    }
+#endif
+#if TX_SPHERES
+    if (kind == PRIM_SPHERE) {
+        for (uint i = first; i < end; ++i) {
+            pfloat t;
+            hit |= sphere_intersect_packet(r, spheres + i, m & ~hit, r->tmax, &t);
             if (!any(m & ~hit)) break;
         }
         return hit;
@@ -323,8 +336,8 @@ inline void triangle_closest_packet(const PacketRay* r, __global const TriVerts*
     h->prim = PSEL_I(ok, (pint)(index), h->prim);
 }
 
-/* The leaf (first, ck) against the lanes m, nearer hits updating h: triangles and quads one
- * at a time against the packet; every other kind lane by lane through leaf_hit. */
+/* The leaf (first, ck) against the lanes m, nearer hits updating h: triangles, quads and
+ * spheres one at a time against the packet; every other kind lane by lane through leaf_hit. */
 inline void leaf_closest_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint ck, pint m, PacketHit* h)
 {
     uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
@@ -345,6 +358,17 @@ inline void leaf_closest_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, 
             h->b1 = PSEL_F(ok, u, h->b1);
             h->b2 = PSEL_F(ok, v, h->b2);
             h->prim = PSEL_I(ok, (pint)((int)((PRIM_QUAD << HIT_KIND_SHIFT) | i)), h->prim);
+        }
+        return;
+    }
+#endif
+#if TX_SPHERES
+    if (kind == PRIM_SPHERE) {
+        for (uint i = first; i < end; ++i) {
+            pfloat t;
+            pint ok = sphere_intersect_packet(r, spheres + i, m, h->t, &t);
+            h->t = PSEL_F(ok, t, h->t);
+            h->prim = PSEL_I(ok, (pint)((int)((PRIM_SPHERE << HIT_KIND_SHIFT) | i)), h->prim);
         }
         return;
     }

@@ -4,10 +4,8 @@
  * leaves (the bilinear patch test took a quarter of a bump-mapped brick wall's frame, lane
  * by lane).
  *
- * The same formulas in the same order as the scalar code, with its roundings: FP
- * contraction off as there (core/accurate.h), dot3 and cross3 as core/common.h compiles
- * them (contraction on: the helpers below sit in a block that turns it on), and Kahan's
- * products and TwoSum with the same explicit fma and additions. The per-lane choices of
+ * The same formulas in the same order as the scalar code, with its roundings (FP
+ * contraction off as there; accel/packet_vec.h's helpers round as the scalar ones do). The per-lane choices of
  * the scalar code (the transposition, the roots' order and their acceptance) are lane
  * masks, so each lane's hit, t and (u, v) are quad_intersect_corners', bit for bit
  * (tests/kernels/test_packet.py compares them ray by ray, and every scene's image is
@@ -15,52 +13,7 @@
 #ifndef TEXRAY_QUAD_PACKET_H
 #define TEXRAY_QUAD_PACKET_H
 #include "geometry/quad.h"
-
-/* A 3-vector per lane. */
-typedef struct {
-    pfloat x, y, z;
-} pfloat3;
-
-inline pfloat3 pf3(pfloat x, pfloat y, pfloat z) { pfloat3 v = { x, y, z }; return v; }
-inline pfloat3 pf3_splat(float3 a) { return pf3((pfloat)(a.x), (pfloat)(a.y), (pfloat)(a.z)); }
-inline pfloat3 pf3_add(pfloat3 a, pfloat3 b) { return pf3(a.x + b.x, a.y + b.y, a.z + b.z); }
-inline pfloat3 pf3_sub(pfloat3 a, pfloat3 b) { return pf3(a.x - b.x, a.y - b.y, a.z - b.z); }
-inline pfloat3 pf3_scale(pfloat s, pfloat3 a) { return pf3(s * a.x, s * a.y, s * a.z); }
-inline pfloat3 pf3_abs(pfloat3 a) { return pf3(fabs(a.x), fabs(a.y), fabs(a.z)); }
-inline pfloat3 pf3_max(pfloat3 a, pfloat3 b) { return pf3(PMAX(a.x, b.x), PMAX(a.y, b.y), PMAX(a.z, b.z)); }
-inline pfloat3 pf3_sel(pint c, pfloat3 a, pfloat3 b)
-{
-    return pf3(PSEL_F(c, a.x, b.x), PSEL_F(c, a.y, b.y), PSEL_F(c, a.z, b.z));
-}
-
-#pragma OPENCL FP_CONTRACT ON
-/* core/common.h's dot3 and cross3, compiled as they are there (contraction on). */
-inline pfloat pf3_dot(pfloat3 a, pfloat3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline pfloat3 pf3_cross(pfloat3 a, pfloat3 b)
-{
-    return pf3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
-}
-#pragma OPENCL FP_CONTRACT OFF
-
-/* core/accurate.h's tx_diff_prod, tx_cross_accurate and tx_two_diff3, lane by lane. */
-inline pfloat pf_diff_prod(pfloat a, pfloat b, pfloat c, pfloat d)
-{
-    pfloat cd = c * d;
-    pfloat err = fma(-c, d, cd);
-    return fma(a, b, -cd) + err;
-}
-inline pfloat3 pf3_cross_accurate(pfloat3 a, pfloat3 b)
-{
-    return pf3(pf_diff_prod(a.y, b.z, a.z, b.y), pf_diff_prod(a.z, b.x, a.x, b.z), pf_diff_prod(a.x, b.y, a.y, b.x));
-}
-inline void pf3_two_diff(pfloat3 a, pfloat3 b, pfloat3* hi, pfloat3* lo)
-{
-    pfloat3 s = pf3_sub(a, b);
-    pfloat3 bb = pf3_sub(s, a);
-    pfloat3 nb = pf3(-b.x, -b.y, -b.z);
-    *lo = pf3_add(pf3_sub(a, pf3_sub(s, bb)), pf3_sub(nb, bb));
-    *hi = s;
-}
+#include "accel/packet_vec.h"
 
 /* quad_try_root for every lane: lanes of `m` whose root u gives a hit with t in
  * (max(tmin, t_floor), best_t) take it into *best_t, *best_u, *best_v; returns them. */

@@ -203,6 +203,44 @@ def test_packet_quads_equal_the_scalar_patch_test(device, rng, monkeypatch):
     assert len(np.unique(kinds)) >= 3, "the rays should hit several of the quads"
 
 
+def test_packet_spheres_equal_the_scalar_sphere_test(device, rng, monkeypatch):
+    """Spheres are tested against whole packets (geometry/sphere_packet.h): t and the sphere
+    hit equal sphere_intersect's per ray, bit for bit: incoherent rays, coherent bundles,
+    rays grazing a silhouette (nearly double roots), rays leaving a sphere's surface outward
+    and inward (the early miss and the near root's c_ok), and a tiny sphere far away."""
+    scene = tx.Scene()
+    scene.add(tx.Sphere(center=(0.0, 0.0, 0.0), radius=1.0))
+    scene.add(tx.Sphere(center=(2.2, 0.3, 0.1), radius=0.5))
+    scene.add(tx.Sphere(center=(-1.8, -0.2, 0.4), radius=0.3))
+    scene.add(tx.Sphere(center=(900.0, 500.0, -300.0), radius=1e-3))
+    tr = _tracers(monkeypatch, scene, device)
+    n = 4000
+    org = rng.uniform(-3, 3, (n, 3))
+    _assert_same(tr, org, rng.normal(0, 1, (n, 3)) * 6)
+    bo, bd = _shadow_bundles(rng, 200, (0.4, 4.0, 3.0), spread=0.05)
+    _assert_same(tr, bo * 2, bd)
+    k = 2000
+    # from the unit sphere's surface (to float precision, just outside or inside), any direction
+    u = rng.normal(0, 1, (k, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    on = u * (1.0 + rng.choice([-1, 1], (k, 1)) * 10.0 ** rng.uniform(-7, -4, (k, 1)))
+    _assert_same(tr, on, rng.normal(0, 1, (k, 3)))
+    # from points exactly on it (c = 0: the root at the origin is not a hit)
+    axes = np.repeat(np.concatenate([np.eye(3), -np.eye(3)]), 64, axis=0)
+    _assert_same(tr, axes, rng.normal(0, 1, axes.shape))
+    # grazing the unit sphere's silhouette: tangent rays 1e-7..1e-3 inside or outside it
+    side = np.cross(u, rng.normal(0, 1, (k, 3)))
+    side /= np.linalg.norm(side, axis=1, keepdims=True)
+    off = u * (1.0 + rng.choice([-1, 1], (k, 1)) * 10.0 ** rng.uniform(-7, -3, (k, 1)))
+    _assert_same(tr, off - 3 * side, 6 * side)
+    # toward the tiny far sphere, through its centre and its rim
+    target = np.array([900.0, 500.0, -300.0]) + rng.normal(0, 1.2e-3, (k, 3))
+    src = rng.uniform(-1, 1, (k, 3)) * 0.01
+    _assert_same(tr, src, (target - src) * 0.6)
+    href = tr[0].closest(src.astype(np.float32), ((target - src) * 0.6).astype(np.float32), 0.0, np.float32(2.0))
+    assert (href.prim >= 0).mean() > 0.1, "rays should hit the tiny far sphere"
+
+
 def test_rendered_images_do_not_depend_on_the_packet_width(device, monkeypatch):
     """The fused kernel with packets: the same image bit for bit at every width, with spp
     not a multiple of the width, three lights (one under the floor), smooth normals (the

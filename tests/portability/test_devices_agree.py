@@ -61,12 +61,13 @@ def test_every_device_renders_the_cpu_image(scenes_dir, path):
 
 @pytest.mark.skipif(len(PORTABILITY_DEVICES) < 2 or not any(d.type == "cpu" for d in PORTABILITY_DEVICES),
                     reason="needs a CPU and another OpenCL device to compare")
-@pytest.mark.parametrize("name", ["textured_meshes", "brick_wall"])
+@pytest.mark.parametrize("name", ["textured_meshes", "brick_wall", "globe"])
 def test_ray_packets_on_every_device(scenes_dir, monkeypatch, name):
     """The packet traversals (kernels/accel/packet.h), which the rule compiles in on PoCL
     only, forced on every device: the image equals the scalar traversals' on the same
     device bit for bit, and agrees with the CPU's; Oclgrind checks their memory accesses.
-    Triangles (textured meshes) and quads (brick wall: geometry/quad_packet.h)."""
+    Triangles (textured meshes), quads (brick wall: geometry/quad_packet.h) and a sphere
+    (globe: geometry/sphere_packet.h)."""
     scene = tx.Scene.load(scenes_dir / f"bench/{name}.toml")
     cpu = next(d for d in PORTABILITY_DEVICES if d.type == "cpu")
     monkeypatch.setenv("TEXRAY_PACKET", "0")
@@ -86,10 +87,11 @@ def test_ray_packets_on_every_device(scenes_dir, monkeypatch, name):
             # `c ? (int16)(1) : (int16)(2)` gives 255 in the true lanes), which packet_setup's
             # lane masks compile to; its memory checker still runs the packet code above.
             continue
-        if name == "brick_wall" and "Intel(R) OpenCL" in d.platform:
-            # Intel's runtime: 1-ulp differences (max 6e-8 in 616 of 3600 values), though its
-            # quad packet hits equal its scalar ones ray for ray in Tracer; packets are compiled
-            # in on PoCL only (texray.device.features.packet_width). Held to the tolerance below.
+        if name != "textured_meshes" and "Intel(R) OpenCL" in d.platform:
+            # Intel's runtime rounds the explicit-vector quad and sphere tests differently in the
+            # last bits (measured: brick wall max 6e-8 in 616 of 3600 values, globe 8e-7 in 536),
+            # though its quad packet hits equal its scalar ones ray for ray in Tracer; the rule
+            # compiles packets in on PoCL only (texray.device.features.packet_width).
             assert np.abs(img.rgb - scalar.rgb).max() <= 1e-6, f"{d.name}: packets change the image"
         else:
             assert np.array_equal(img.rgb, scalar.rgb), f"{d.name}: packets change the image"
