@@ -13,39 +13,39 @@ typedef struct {
     pfloat x, y, z;
 } pfloat3;
 
-inline pfloat3 pf3(pfloat x, pfloat y, pfloat z) { pfloat3 v = { x, y, z }; return v; }
-inline pfloat3 pf3_splat(float3 a) { return pf3((pfloat)(a.x), (pfloat)(a.y), (pfloat)(a.z)); }
-inline pfloat3 pf3_add(pfloat3 a, pfloat3 b) { return pf3(a.x + b.x, a.y + b.y, a.z + b.z); }
-inline pfloat3 pf3_sub(pfloat3 a, pfloat3 b) { return pf3(a.x - b.x, a.y - b.y, a.z - b.z); }
-inline pfloat3 pf3_scale(pfloat s, pfloat3 a) { return pf3(s * a.x, s * a.y, s * a.z); }
-inline pfloat3 pf3_abs(pfloat3 a) { return pf3(fabs(a.x), fabs(a.y), fabs(a.z)); }
-inline pfloat3 pf3_max(pfloat3 a, pfloat3 b) { return pf3(PMAX(a.x, b.x), PMAX(a.y, b.y), PMAX(a.z, b.z)); }
-inline pfloat3 pf3_sel(pint c, pfloat3 a, pfloat3 b)
+static inline __attribute__((always_inline)) pfloat3 pf3(pfloat x, pfloat y, pfloat z) { pfloat3 v = { x, y, z }; return v; }
+static inline __attribute__((always_inline)) pfloat3 pf3_splat(float3 a) { return pf3((pfloat)(a.x), (pfloat)(a.y), (pfloat)(a.z)); }
+static inline __attribute__((always_inline)) pfloat3 pf3_add(pfloat3 a, pfloat3 b) { return pf3(a.x + b.x, a.y + b.y, a.z + b.z); }
+static inline __attribute__((always_inline)) pfloat3 pf3_sub(pfloat3 a, pfloat3 b) { return pf3(a.x - b.x, a.y - b.y, a.z - b.z); }
+static inline __attribute__((always_inline)) pfloat3 pf3_scale(pfloat s, pfloat3 a) { return pf3(s * a.x, s * a.y, s * a.z); }
+static inline __attribute__((always_inline)) pfloat3 pf3_abs(pfloat3 a) { return pf3(fabs(a.x), fabs(a.y), fabs(a.z)); }
+static inline __attribute__((always_inline)) pfloat3 pf3_max(pfloat3 a, pfloat3 b) { return pf3(PMAX(a.x, b.x), PMAX(a.y, b.y), PMAX(a.z, b.z)); }
+static inline __attribute__((always_inline)) pfloat3 pf3_sel(pint c, pfloat3 a, pfloat3 b)
 {
     return pf3(PSEL_F(c, a.x, b.x), PSEL_F(c, a.y, b.y), PSEL_F(c, a.z, b.z));
 }
 
 #pragma OPENCL FP_CONTRACT ON
 /* core/common.h's dot3 and cross3, compiled as they are there (contraction on). */
-inline pfloat pf3_dot(pfloat3 a, pfloat3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline pfloat3 pf3_cross(pfloat3 a, pfloat3 b)
+static inline __attribute__((always_inline)) pfloat pf3_dot(pfloat3 a, pfloat3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline __attribute__((always_inline)) pfloat3 pf3_cross(pfloat3 a, pfloat3 b)
 {
     return pf3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
 #pragma OPENCL FP_CONTRACT OFF
 
 /* core/accurate.h's tx_diff_prod, tx_cross_accurate and tx_two_diff3, lane by lane. */
-inline pfloat pf_diff_prod(pfloat a, pfloat b, pfloat c, pfloat d)
+static inline __attribute__((always_inline)) pfloat pf_diff_prod(pfloat a, pfloat b, pfloat c, pfloat d)
 {
     pfloat cd = c * d;
     pfloat err = fma(-c, d, cd);
     return fma(a, b, -cd) + err;
 }
-inline pfloat3 pf3_cross_accurate(pfloat3 a, pfloat3 b)
+static inline __attribute__((always_inline)) pfloat3 pf3_cross_accurate(pfloat3 a, pfloat3 b)
 {
     return pf3(pf_diff_prod(a.y, b.z, a.z, b.y), pf_diff_prod(a.z, b.x, a.x, b.z), pf_diff_prod(a.x, b.y, a.y, b.x));
 }
-inline void pf3_two_diff(pfloat3 a, pfloat3 b, pfloat3* hi, pfloat3* lo)
+static inline __attribute__((always_inline)) void pf3_two_diff(pfloat3 a, pfloat3 b, pfloat3* hi, pfloat3* lo)
 {
     pfloat3 s = pf3_sub(a, b);
     pfloat3 bb = pf3_sub(s, a);
