@@ -31,8 +31,11 @@
  *     above its max or below its min, else descended; in a texel cell (the
  *     bilinear patch between four texel centres) f is a quadratic in t, solved
  *     exactly. Conservative: a cell is only skipped when it cannot hold a root, so
- *     no spike is missed whatever its width. Parallelogram quads only (u, v, h affine
- *     in t); the host refuses it elsewhere.
+ *     no spike is missed whatever its width. On parallelogram quads (u, v, h affine
+ *     in t), and on spheres and cylinders (TX_DISP_MAXMIP_CURVED, disp_maxmip_curved:
+ *     the segment cut into pieces where u, v and h are monotone in t, each bisected
+ *     in t against the pyramid, texel cells by the bilinear patch's bound and a
+ *     bracketed regula falsi); the host refuses it on trapezoids and meshes.
  *
  * DISP_TRIANGLE (TX_DISP_MESH): one triangle of a displaced mesh, the surface
  * S = P(b1, b2) + H N(b1, b2) with P and N interpolated linearly from the corners and
@@ -604,23 +607,30 @@ inline int disp_maxmip(__global const ushort* hts, __global const Displaced* d, 
  * wraps around the seam.
  *
  * An interval [ta, tb] of a piece then has its ray inside the rectangle spanned by its
- * ends' (X, Y) (widened by a rounding bound) at heights between its ends' h (widened by
- * delta). The height field over that rectangle is bounded by the pyramid's cells at the
- * finest level where it spans at most 2 x 2 of them, and within one texel cell exactly by
- * the bilinear patch at the rectangle's four corners (a bilinear function has its extremes
- * over an axis-aligned rectangle at the corners). The interval is skipped when the two
- * ranges are disjoint (its side of the surface then known), else halved. In one texel cell,
- * an interval whose ends lie on either side of the surface and which spans at most a
- * quarter texel in X and Y is taken to hold one root (f is then close to the quadratic of a
- * quad's texel cell, with at most two roots; one sign change means one), polished by
- * Illinois' regula falsi (TX_DISP_CURVED_POLISH steps, then a secant step). Other
- * intervals are halved down to TX_DISP_CURVED_DEPTH levels, or until the midpoint no
- * longer splits them in float32; a finest interval without a sign change holds no hit (a
- * ray touching the surface without crossing it, as for the search). A side of the surface
- * that changes from one interval (or piece) to the next, with no root between (a map that
- * does not wrap across the seam), is a crossing at their shared end, as the search sees
- * it. Every loop is bounded: pieces <= 5, bisection steps <= a cap from the texture's size
- * (cap reached: a miss), polish steps <= TX_DISP_CURVED_POLISH. */
+ * ends' (X, Y) (widened by 2^-16 of the texture's size, a rounding bound) at heights
+ * between its ends' h (widened by delta). The height field over that rectangle is bounded
+ * by the pyramid's cells at the finest level where it spans at most 2 x 2 of them; at
+ * level 0 (at most 2 x 2 texel cells) by the bilinear patch of each cell at the corners of
+ * the rectangle's part in it (a bilinear function has its extremes over an axis-aligned
+ * rectangle at the corners), so the bound tightens as the interval shrinks. The interval
+ * is skipped when the two ranges are disjoint (its side of the surface then known), else
+ * halved. At level 0, f is evaluated at the interval's ends: ends on either side of the
+ * surface, over at most TX_DISP_CURVED_LEAF texel in X and Y, are taken to bracket one
+ * root (f there is close to the quadratic of a quad's texel cell, which has at most two
+ * roots: one sign change means one), polished by Illinois' regula falsi
+ * (TX_DISP_CURVED_POLISH steps, then a secant step). An interval over at most
+ * TX_DISP_CURVED_FINE texel in X and Y with no sign change at its ends is not halved
+ * further: it holds no hit. This is where the traversal is not exact: the bound test alone
+ * would need ever shorter intervals for a ray skimming just above the surface, so a ray
+ * that dips below the surface and out again within 1/64 texel of (u, v) is missed (a
+ * near-tangent ray; the search misses it too, between its samples); every root with a
+ * sign change between such intervals is found, whatever the spike's width. Intervals are
+ * also not halved below TX_DISP_CURVED_DEPTH levels or where the midpoint no longer splits
+ * them in float32 (their ends' signs decide). A side of the surface that changes from one
+ * interval (or piece) to the next, with no root between (a map that does not wrap across
+ * the seam), is a crossing at their shared end, as the search sees it. Every loop is
+ * bounded: pieces <= 5, bisection steps <= a cap from the texture's size (reached: a miss),
+ * polish steps <= TX_DISP_CURVED_POLISH. */
 #define TX_DISP_CURVED_DEPTH 24       /* dyadic levels of a piece: indices k < 2^24 are exact floats */
 #define TX_DISP_CURVED_POLISH 16      /* regula falsi (Illinois) steps in a final bracket */
 #define TX_DISP_CURVED_LEAF 0.25f     /* a bracket this small in X and Y (texels) holds one root */
