@@ -234,3 +234,41 @@ def test_maxmip_shadows_as_the_search(kind):
     # maxmip's own hit points never shadow themselves; the search's surface differs from them
     # by the search's error, which can put a point just under a crest of its own surface
     assert not occ["maxmip"][1].any() and occ["search"][1].mean() <= 0.01, occ["search"][1].sum()
+
+
+@pytest.mark.parametrize("kind", ["sphere", "cylinder"])
+@pytest.mark.parametrize("heights", ["zero", "one", "single"])
+def test_maxmip_constant_maps_are_the_shape_at_their_height(kind, heights):
+    """All-zero and all-one maps and a 1x1 texture (a pyramid of one level): the sphere or
+    cylinder of radius r + H, hit where the analytic shape is, from outside (80 to 5 degrees
+    above it) and from inside the shell, below the surface, outward."""
+    a = {"zero": np.zeros((4, 4)), "one": np.ones((4, 4)), "single": np.full((1, 1), 0.7)}[heights]
+    d = tx.Displacement(_tex(a), scale=0.1, offset=0.02, method="maxmip")
+    level = 0.02 + 0.1 * float(a.flat[0])
+    shape = _shape(kind, d)
+    tracer = _tracer(shape)
+    rng = np.random.default_rng(1)
+    p, n, tang = _frame(shape, rng.uniform(0, 1, 200), rng.uniform(0.1, 0.9, 200))
+    c, r, _, az = shape.world()[:4]
+    for elev in (80, 30, 5, -60):
+        e = np.radians(abs(elev))
+        if elev > 0:                                   # from outside toward the surface's point over p
+            dirs = np.cos(e) * tang - np.sin(e) * n
+            orgs = p + level * n - 1.0 * dirs
+        else:                                          # from inside the shell, outward
+            dirs = np.cos(e) * tang + np.sin(e) * n
+            orgs = p + 0.5 * level * n
+        t, _ = trace_each(tracer, orgs, dirs)
+        oc, dd = orgs - c, dirs
+        if kind == "cylinder":
+            oc = oc - (oc @ az)[:, None] * az
+            dd = dirs - (dirs @ az)[:, None] * az
+        A, B, C = (dd * dd).sum(1), (oc * dd).sum(1), (oc * oc).sum(1) - (r + level) ** 2
+        roots = np.stack([(-B - np.sqrt(B * B - A * C)) / A, (-B + np.sqrt(B * B - A * C)) / A])
+        te = np.where(roots[0] > 1e-6, roots[0], roots[1])   # the first root ahead: every ray meets the shape
+        z = (orgs + te[:, None] * dirs - c) @ az
+        sure = np.abs(np.abs(z) - 0.8) > 1e-4 if kind == "cylinder" else np.ones(len(te), bool)
+        hit = (np.abs(z) < 0.8) if kind == "cylinder" else np.ones(len(te), bool)
+        assert hit.mean() > 0.5, elev
+        np.testing.assert_array_equal(np.isnan(t[sure]), ~hit[sure])
+        np.testing.assert_allclose(t[hit & sure], te[hit & sure], rtol=1e-5, atol=1e-6)
