@@ -82,3 +82,104 @@ def uv_sphere_mesh(sphere, material, nu=128, nv=64):
     area = np.linalg.norm(np.cross(pts[faces[:, 1]] - pts[faces[:, 0]], pts[faces[:, 2]] - pts[faces[:, 0]]), axis=1)
     return tx.Mesh(pts, faces[area > 1e-12], np.stack([u.ravel(), v.ravel()], 1), n.reshape(-1, 3), name="m",
                    material=material)
+
+
+def curved_local(shape, q):
+    """float64 (u, v, h) of the points q (..., 3) about a tx.Sphere or tx.Cylinder, in its own
+    parameterization (Sphere.surface, Cylinder.surface; written here from those formulas,
+    independently of the kernel's): u, v NaN where the shape has no surface (a partial
+    cylinder's gap, beyond its z range)."""
+    import texray as tx
+    w = shape.world()
+    c, r, ax, az = w[:4]
+    ay = np.cross(az, ax)
+    p = np.asarray(q, np.float64) - c
+    x, y, z = p @ ax, p @ ay, p @ az
+    rho = np.hypot(x, y)
+    if isinstance(shape, tx.Sphere):
+        u = np.mod(np.arctan2(y, x) / (2 * np.pi), 1.0)
+        return u, 1 - np.arctan2(rho, z) / np.pi, np.hypot(rho, z) - r
+    (z0, z1), (t0, t1) = w[4], w[5]
+    u = np.mod(np.arctan2(y, x) - t0, 2 * np.pi) / (t1 - t0)
+    v = (z - z0) / (z1 - z0)
+    ok = (u <= 1) & (v >= 0) & (v <= 1)
+    return np.where(ok, u, np.nan), np.where(ok, v, np.nan), rho - r
+
+
+def curved_reference(shape, d, org, dirs, samples=20000, chunk=64):
+    """float64 (t, uv) of the first crossing of each ray with the displaced sphere or
+    cylinder ``shape`` (displacement ``d``), NaN if none: f = h - H(u, v) sampled at
+    ``samples`` points over the ray's part (t >= 0) within the outer shell r + max H (a
+    cylinder's within its z range; a sphere's up to where it enters the inner sphere r +
+    min H, as the kernel's volume), the first sample with surface setting the side (the
+    search's rule: samples without surface neither start nor end a bracket), the first
+    sign change after it bisected 50 times."""
+    import texray as tx
+    hts = d.heights()
+    w = shape.world()
+    c, r, ax, az = w[:4]
+    org = np.broadcast_to(np.asarray(org, np.float64), np.shape(dirs))
+    dirs = np.asarray(dirs, np.float64)
+    R = r + hts.max() + 1e-9
+    if isinstance(shape, tx.Sphere):
+        oc, dd = org - c, dirs
+    else:                                   # the distance to the axis: drop the axial parts
+        oc = (org - c) - ((org - c) @ az)[:, None] * az
+        dd = dirs - (dirs @ az)[:, None] * az
+    a, b, cc = (dd * dd).sum(1), (oc * dd).sum(1), (oc * oc).sum(1) - R * R
+    disc = b * b - a * cc
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sq = np.sqrt(np.maximum(disc, 0))
+        tn, tf = (-b - sq) / a, (-b + sq) / a
+        if not isinstance(shape, tx.Sphere):
+            (z0, z1) = w[4]
+            zo, zd = (org - c) @ az, dirs @ az
+            s0, s1 = (z0 - zo) / zd, (z1 - zo) / zd
+            tn, tf = np.maximum(tn, np.minimum(s0, s1)), np.minimum(tf, np.maximum(s0, s1))
+        if isinstance(shape, tx.Sphere):      # the kernel's volume: cut where the ray enters the inner
+            ri = r + hts.min() - 1e-9          # sphere, below the surface everywhere (displace.h disp_clip)
+            ci = (oc * oc).sum(1) - ri * ri
+            di = b * b - a * ci
+            enter = (-b - np.sqrt(np.maximum(di, 0))) / a
+            tf = np.where((ri > 0) & (di >= 0) & (enter > np.maximum(tn, 0)), np.minimum(tf, enter), tf)
+    tn = np.maximum(tn, 0)
+    ok = (disc >= 0) & (tn < tf)
+    tn, tf = np.where(ok, tn, 0.0), np.where(ok, tf, 0.0)
+
+    def f(o, dv, t):
+        q = o[:, None] + t[..., None] * dv[:, None]
+        u, v, h = curved_local(shape, q)
+        fin = ~np.isnan(u)
+        hv = HF.height(hts, np.clip(np.nan_to_num(u), 0, 1), np.clip(np.nan_to_num(v), 0, 1), d.wrap)
+        return np.where(fin, h - hv, np.inf), u, v
+
+    t_out, uv_out = np.full(len(dirs), np.nan), np.full((len(dirs), 2), np.nan)
+    lin = np.linspace(0, 1, samples)[None]
+    for s in range(0, len(dirs), chunk):
+        sl = slice(s, s + chunk)
+        o, dv, a0, a1 = org[sl], dirs[sl], tn[sl], tf[sl]
+        t = a0[:, None] + lin * (a1 - a0)[:, None]
+        fv, _, _ = f(o, dv, t)
+        fin = np.isfinite(fv)
+        below = fv < 0
+        first = np.argmax(fin, axis=1)
+        rows = np.arange(len(t))
+        start = below[rows, first]
+        # the last finite sample before each one: brackets skip samples without surface
+        idx = np.where(fin, np.arange(samples)[None], -1)
+        prev = np.maximum.accumulate(idx, axis=1)
+        prev = np.concatenate([np.full((len(t), 1), -1), prev[:, :-1]], axis=1)
+        change = (below != start[:, None]) & fin & (np.arange(samples)[None] > first[:, None]) & fin.any(1)[:, None]
+        hit = change.any(axis=1) & ok[sl]
+        i = np.argmax(change, axis=1)
+        lo_t, hi_t = t[rows, np.maximum(prev[rows, i], 0)], t[rows, i]
+        for _ in range(50):
+            mid = 0.5 * (lo_t + hi_t)
+            fm, _, _ = f(o, dv, mid[:, None])
+            same = (fm[:, 0] < 0) == start
+            lo_t, hi_t = np.where(same, mid, lo_t), np.where(same, hi_t, mid)
+        th = 0.5 * (lo_t + hi_t)
+        _, u, v = f(o, dv, th[:, None])
+        t_out[sl] = np.where(hit, th, np.nan)
+        uv_out[sl] = np.column_stack([u[:, 0], v[:, 0]])
+    return t_out, uv_out

@@ -964,8 +964,6 @@ def _valid_material(ch, L, kind, parallelogram=False, mapped=False, planar_conve
     if kind in ("sphere", "cylinder", "quad") + (() if mapped else ("mesh",)) and ch.boolean(0.25):
         methods = ["tessellate"] + (["search", "maxmip"] if parallelogram or kind != "quad" else
                                     ["search"] if planar_convex else [])
-        if kind != "quad":
-            methods.remove("maxmip")
         if kind == "mesh":                         # texray.compile.tessellate_mesh, .shells
             methods = ["tessellate", "search"]
         method = ch.choice(methods)

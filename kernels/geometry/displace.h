@@ -31,8 +31,11 @@
  *     above its max or below its min, else descended; in a texel cell (the
  *     bilinear patch between four texel centres) f is a quadratic in t, solved
  *     exactly. Conservative: a cell is only skipped when it cannot hold a root, so
- *     no spike is missed whatever its width. Parallelogram quads only (u, v, h affine
- *     in t); the host refuses it elsewhere.
+ *     no spike is missed whatever its width. On parallelogram quads (u, v, h affine
+ *     in t), and on spheres and cylinders (TX_DISP_MAXMIP_CURVED, disp_maxmip_curved:
+ *     the segment cut into pieces where u, v and h are monotone in t, each bisected
+ *     in t against the pyramid, texel cells by the bilinear patch's bound and a
+ *     bracketed regula falsi); the host refuses it on trapezoids and meshes.
  *
  * DISP_TRIANGLE (TX_DISP_MESH): one triangle of a displaced mesh, the surface
  * S = P(b1, b2) + H N(b1, b2) with P and N interpolated linearly from the corners and
@@ -587,6 +590,284 @@ inline int disp_maxmip(__global const ushort* hts, __global const Displaced* d, 
     return 0;
 }
 
+#if TX_DISP_MAXMIP_CURVED
+/* Maxmip on spheres and cylinders (header comment): the ray's segment [A, B] is cut into
+ * pieces on which the cell coordinates X = u W + 1/2, Y = (1 - v) H + 1/2 and the height
+ * h are all monotone in t, and each piece is bisected in t (a dyadic, stackless
+ * traversal, left half first) against the min-max pyramid.
+ *
+ * Cuts: where the ray passes closest to the axis (the azimuth sweeps less than pi along a
+ * line, monotonically, but jumps by pi where the line meets the axis; the cylinder's rho,
+ * so h, is least there); the sphere's closest point to its centre (h least) and the
+ * extremum of its polar angle (cos theta = z / |q| has a derivative whose numerator is
+ * linear in t, so theta is unimodal along a line); the seam, the meridian half-plane at
+ * theta_min (a sphere's +x), and a partial cylinder's other end at theta_max (a piece in
+ * its gap has no surface and is skipped). On a piece, X is taken from the azimuth
+ * relative to the piece's midpoint (continuous: a piece sweeps less than pi), so no piece
+ * wraps around the seam.
+ *
+ * An interval [ta, tb] of a piece then has its ray inside the rectangle spanned by its
+ * ends' (X, Y) (widened by 2^-16 of the texture's size, a rounding bound) at heights
+ * between its ends' h (widened by delta). The height field over that rectangle is bounded
+ * by the pyramid's cells at the finest level where it spans at most 2 x 2 of them; at
+ * level 0 (at most 2 x 2 texel cells) by the bilinear patch of each cell at the corners of
+ * the rectangle's part in it (a bilinear function has its extremes over an axis-aligned
+ * rectangle at the corners), so the bound tightens as the interval shrinks. The interval
+ * is skipped when the two ranges are disjoint (its side of the surface then known), else
+ * halved. At level 0, f is evaluated at the interval's ends: ends on either side of the
+ * surface, over at most TX_DISP_CURVED_LEAF texel in X and Y, are taken to bracket one
+ * root (f there is close to the quadratic of a quad's texel cell, which has at most two
+ * roots: one sign change means one), polished by Illinois' regula falsi
+ * (TX_DISP_CURVED_POLISH steps, then a secant step). An interval over at most
+ * TX_DISP_CURVED_FINE texel in X and Y with no sign change at its ends is not halved
+ * further: it holds no hit. This is where the traversal is not exact: the bound test alone
+ * would need ever shorter intervals for a ray skimming just above the surface, so a ray
+ * that dips below the surface and out again within 1/64 texel of (u, v) is missed (a
+ * near-tangent ray; the search misses it too, between its samples); every root with a
+ * sign change between such intervals is found, whatever the spike's width. Intervals are
+ * also not halved below TX_DISP_CURVED_DEPTH levels or where the midpoint no longer splits
+ * them in float32 (their ends' signs decide). A side of the surface that changes from one
+ * interval (or piece) to the next, with no root between (a map that does not wrap across
+ * the seam), is a crossing at their shared end, as the search sees it. Every loop is
+ * bounded: pieces <= 5, bisection steps <= a cap from the texture's size (reached: a miss),
+ * polish steps <= TX_DISP_CURVED_POLISH. */
+#define TX_DISP_CURVED_DEPTH 24       /* dyadic levels of a piece: indices k < 2^24 are exact floats */
+#define TX_DISP_CURVED_POLISH 16      /* regula falsi (Illinois) steps in a final bracket */
+#define TX_DISP_CURVED_LEAF 0.25f     /* a bracket this small in X and Y (texels) holds one root */
+#define TX_DISP_CURVED_FINE 0.015625f /* an interval this small in X and Y (1/64 texel) is not halved further */
+
+typedef struct {
+    float px, py;       /* the piece's reference direction: its midpoint's (x, y) about the axis */
+    float xm, kx;       /* X at the reference direction; dX / d(azimuth) (0 on the axis) */
+    float ky, kz;       /* sphere: dY / d(polar angle); cylinder: Y = ky + kz z */
+} DispPiece;
+
+/* (X, Y, h) of the ray's point t on a piece. */
+inline float3 disp_piece_xyh(const DispFrame* f, const DispPiece* pc, float t)
+{
+    float3 q = f->q0 + t * f->dir;
+    float x = dot3(q, f->e0), y = dot3(q, f->e1), z = dot3(q, f->n);
+    float rho = tx_hypot(x, y);
+    float X = pc->xm + pc->kx * tx_atan2(pc->px * y - pc->py * x, pc->px * x + pc->py * y);
+    if (f->shape == DISP_SPHERE) return (float3)(X, tx_atan2(rho, z) * pc->ky + 0.5f, tx_hypot(rho, z) - f->radius);
+    return (float3)(X, pc->ky + pc->kz * z, rho - f->radius);
+}
+
+/* The bilinear patch of a texel cell's corners c at fractions (ax, ay) (disp_height's). */
+inline float disp_bilerp(float4 c, float ax, float ay)
+{
+    return (c.x * (1.0f - ax) + c.y * ax) * (1.0f - ay) + (c.z * (1.0f - ax) + c.w * ax) * ay;
+}
+
+/* Level-0 cell index of the coordinate x, clamped to [0, n - 1] (NaN -> 0). */
+inline int disp_cell_index(float x, int n)
+{
+    return x >= 1.0f ? TX_MIN((int)TX_MIN(x, (float)(n - 1)), n - 1) : 0;
+}
+
+/* H at (X, Y) (disp_height's interpolant, from X, Y directly). */
+inline float disp_height_xy(__global const ushort* hts, const DispFrame* f, float X, float Y)
+{
+    int cx = disp_cell_index(X, f->w + 1), cy = disp_cell_index(Y, f->h + 1);
+    float4 c = disp_cell_corners(hts, f, cx, cy);
+    return disp_bilerp(c, clamp(X - (float)cx, 0.0f, 1.0f), clamp(Y - (float)cy, 0.0f, 1.0f));
+}
+
+/* The primitive's (u, v) of cell coordinates (X, Y), clamped to [0, 1]. */
+inline float2 disp_xy_uv(const DispFrame* f, float3 e)
+{
+    return clamp((float2)((e.x - 0.5f) / (float)f->w, 1.0f - (e.y - 0.5f) / (float)f->h), 0.0f, 1.0f);
+}
+
+/* Adds the cut t to s[*n] when it lies strictly inside (A, B). */
+inline void disp_cut(float t, float A, float B, float* s, int* n)
+{
+    if (t > A && t < B) s[(*n)++] = t;
+}
+
+/* The meridian half-plane through direction (c, s) about the axis: the t where the ray
+ * crosses it, NaN where it does not (parallel, or crossing the opposite half-plane). */
+inline float disp_meridian(float c, float s, float x0, float y0, float dx, float dy)
+{
+    float t = (s * x0 - c * y0) / (c * dy - s * dx);
+    return c * (x0 + t * dx) + s * (y0 + t * dy) > 0.0f ? t : NAN;
+}
+
+/* A root found at t, the side of the surface after it `below`: a hit (return 1) unless
+ * an any-hit ray that started inside leaves the surface it starts on (header comment). */
+inline int disp_curved_counts(int any, int from_outside, int below)
+{
+    return !any || below || from_outside;
+}
+
+inline int disp_maxmip_curved(__global const ushort* hts, __global const Displaced* d, const DispFrame* f,
+                              float A, float B, int any, int from_outside, float* t_hit, float2* uv_hit)
+{
+    int levels = TX_MIN((int)d->levels, TX_DISP_MAX_LEVELS);
+    if (levels < 1 || f->w < 1 || f->h < 1) return 0;
+    uint off[TX_DISP_MAX_LEVELS];
+    int cw[TX_DISP_MAX_LEVELS];
+    off[0] = d->moff; cw[0] = f->w + 1;
+    int ch0 = f->h + 1, chl = ch0;
+    for (int l = 1; l < levels; ++l) {
+        off[l] = off[l - 1] + 2u * (uint)(cw[l - 1] * chl);
+        cw[l] = (cw[l - 1] + 1) / 2; chl = (chl + 1) / 2;
+    }
+    int sphere = f->shape == DISP_SPHERE;
+    float W = (float)f->w, Hf = (float)f->h;
+    float span = sphere ? 2.0f * M_PI_F : f->span;
+    float x0 = dot3(f->q0, f->e0), y0 = dot3(f->q0, f->e1), z0 = dot3(f->q0, f->n);
+    float dx = dot3(f->dir, f->e0), dy = dot3(f->dir, f->e1), dz = dot3(f->dir, f->n);
+
+    /* The cuts (function comment), sorted. */
+    float s[6];
+    int ns = 0;
+    float dd = dx * dx + dy * dy;
+    disp_cut(-(x0 * dx + y0 * dy) / dd, A, B, s, &ns);                 /* closest to the axis */
+    if (sphere) {
+        float aa = dot3(f->dir, f->dir), qd = dot3(f->q0, f->dir);
+        disp_cut(-qd / aa, A, B, s, &ns);                               /* closest to the centre */
+        disp_cut(-(dz * dot3(f->q0, f->q0) - z0 * qd) / (dz * qd - z0 * aa), A, B, s, &ns);   /* polar extremum */
+        disp_cut(disp_meridian(1.0f, 0.0f, x0, y0, dx, dy), A, B, s, &ns);                   /* the seam */
+    } else {
+        disp_cut(disp_meridian(cos(f->th0), sin(f->th0), x0, y0, dx, dy), A, B, s, &ns);
+        if (span < 2.0f * M_PI_F)
+            disp_cut(disp_meridian(cos(f->th0 + span), sin(f->th0 + span), x0, y0, dx, dy), A, B, s, &ns);
+    }
+    for (int i = 1; i < ns; ++i)
+        for (int j = i; j > 0 && s[j - 1] > s[j]; --j) { float a = s[j]; s[j] = s[j - 1]; s[j - 1] = a; }
+    s[ns] = B;
+
+    float epsx = 1.52587890625e-05f * (W + 2.0f), epsy = 1.52587890625e-05f * (Hf + 2.0f);   /* 2^-16 (size + 2) */
+    int side = -1;                                       /* below the surface (1), above (0), not yet known (-1) */
+    int budget = (TX_MIN(f->w, 1 << 20) + TX_MIN(f->h, 1 << 20) + 4) * (2 * levels + 2 * TX_DISP_CURVED_DEPTH) + 256;
+    float P0 = A;
+    for (int p = 0; p <= ns; P0 = s[p], ++p) {
+        float P1 = s[p];
+        if (!(P1 > P0)) continue;
+        DispPiece pc;
+        float tm = 0.5f * (P0 + P1);
+        float3 qm = f->q0 + tm * f->dir;
+        pc.px = dot3(qm, f->e0); pc.py = dot3(qm, f->e1);
+        float um;
+        if (sphere) {
+            um = azimuth_u(pc.px, pc.py);
+            pc.ky = Hf * M_1_PI_F; pc.kz = 0.0f;
+        } else {
+            um = cylinder_theta_rel(pc.px, pc.py, f->th0) / span;
+            pc.kz = -Hf / (f->z1 - f->z0); pc.ky = 0.5f - f->z1 * pc.kz;    /* (1 - v) H + 1/2 */
+        }
+        if (!(um <= 1.0f)) continue;                     /* a partial cylinder's gap: no surface */
+        pc.xm = um * W + 0.5f;
+        pc.kx = pc.px != 0.0f || pc.py != 0.0f ? W / span : 0.0f;
+
+        /* Dyadic traversal of [P0, P1]: interval k of 2^dep, its left end ta / ea carried. */
+        float len = P1 - P0, scale = 1.0f;
+        int dep = 0;
+        uint k = 0u;
+        float ta = P0;
+        float3 ea = disp_piece_xyh(f, &pc, P0);
+        float fa = 0.0f, fb = 0.0f;
+        int fa_ok = 0, fb_ok = 0;
+        for (;;) {
+            if (--budget < 0) return 0;
+            float tb = k + 1u == (1u << dep) ? P1 : P0 + len * ((float)(k + 1u) * scale);
+            float3 eb = disp_piece_xyh(f, &pc, tb);
+            float xlo = TX_MIN(ea.x, eb.x) - epsx, xhi = TX_MAX(ea.x, eb.x) + epsx;
+            float ylo = TX_MIN(ea.y, eb.y) - epsy, yhi = TX_MAX(ea.y, eb.y) + epsy;
+            float hlo = TX_MIN(ea.z, eb.z) - f->delta, hhi = TX_MAX(ea.z, eb.z) + f->delta;
+            int cx0 = disp_cell_index(xlo, cw[0]), cx1 = disp_cell_index(xhi, cw[0]);
+            int cy0 = disp_cell_index(ylo, ch0), cy1 = disp_cell_index(yhi, ch0);
+            int L = 0;
+            float Hlo = INFINITY, Hhi = -INFINITY;
+            while (L < levels - 1 && ((cx1 >> L) - (cx0 >> L) > 1 || (cy1 >> L) - (cy0 >> L) > 1)) ++L;
+            for (int iy = cy0 >> L; iy <= cy1 >> L; ++iy)
+                for (int ix = cx0 >> L; ix <= cx1 >> L; ++ix) {
+                    if (L == 0) {                        /* the patch over the rectangle's part in the cell */
+                        float4 c = disp_cell_corners(hts, f, ix, iy);
+                        float ax0 = clamp(xlo - (float)ix, 0.0f, 1.0f), ax1 = clamp(xhi - (float)ix, 0.0f, 1.0f);
+                        float ay0 = clamp(ylo - (float)iy, 0.0f, 1.0f), ay1 = clamp(yhi - (float)iy, 0.0f, 1.0f);
+                        float b00 = disp_bilerp(c, ax0, ay0), b10 = disp_bilerp(c, ax1, ay0);
+                        float b01 = disp_bilerp(c, ax0, ay1), b11 = disp_bilerp(c, ax1, ay1);
+                        Hlo = TX_MIN(Hlo, TX_MIN(TX_MIN(b00, b10), TX_MIN(b01, b11)));
+                        Hhi = TX_MAX(Hhi, TX_MAX(TX_MAX(b00, b10), TX_MAX(b01, b11)));
+                    } else {
+                        float2 mm = f->hmin
+                                  + convert_float2(vload2(0, hts + off[L] + 2u * (uint)(iy * cw[L] + ix))) * f->hstep;
+                        Hlo = TX_MIN(Hlo, mm.x); Hhi = TX_MAX(Hhi, mm.y);
+                    }
+                }
+            int next = 1;                                /* go on to the next interval (else: halve this one) */
+            if (hlo > Hhi || hhi < Hlo) {                /* no root: the interval's side is known */
+                int below = hhi < Hlo;
+                if (side >= 0 && below != side && disp_curved_counts(any, from_outside, below)) {
+                    *t_hit = ta; *uv_hit = disp_xy_uv(f, ea);
+                    return 1;
+                }
+                side = below;
+            } else {
+                float tmid = P0 + len * ((float)(2u * k + 1u) * (0.5f * scale));
+                int split = dep < TX_DISP_CURVED_DEPTH && tmid > ta && tmid < tb;
+                if (L == 0 || !split) {
+                    /* f at the ends (at ta: carried from the interval before, or its parent) */
+                    if (!fa_ok) fa = ea.z - disp_height_xy(hts, f, ea.x, ea.y);
+                    fb = eb.z - disp_height_xy(hts, f, eb.x, eb.y);
+                    fa_ok = fb_ok = 1;
+                    int ba = fa < 0.0f, bb = fb < 0.0f;
+                    if (side >= 0 && ba != side && disp_curved_counts(any, from_outside, ba)) {
+                        *t_hit = ta; *uv_hit = disp_xy_uv(f, ea);
+                        return 1;
+                    }
+                    side = ba;
+                    float ex = fabs(eb.x - ea.x), ey = fabs(eb.y - ea.y);
+                    if (bb != side && (!split || (ex <= TX_DISP_CURVED_LEAF && ey <= TX_DISP_CURVED_LEAF))) {
+                        /* A bracket: Illinois' regula falsi, then a secant step. */
+                        float lo = ta, hi = tb, flo = fa, fhi = fb;
+                        int last = 0;
+                        for (int i = 0; i < TX_DISP_CURVED_POLISH && flo != fhi; ++i) {
+                            float m = lo + (hi - lo) * (flo / (flo - fhi));
+                            if (!(m > lo && m < hi)) m = 0.5f * (lo + hi);
+                            if (!(m > lo && m < hi)) break;
+                            float3 em = disp_piece_xyh(f, &pc, m);
+                            float fm = em.z - disp_height_xy(hts, f, em.x, em.y);
+                            if ((fm < 0.0f) == side) {
+                                lo = m; flo = fm;
+                                if (last == 1) fhi *= 0.5f;
+                                last = 1;
+                            } else {
+                                hi = m; fhi = fm;
+                                if (last == 2) flo *= 0.5f;
+                                last = 2;
+                            }
+                        }
+                        float th = flo != fhi ? clamp(lo + (hi - lo) * (flo / (flo - fhi)), lo, hi) : hi;
+                        if (disp_curved_counts(any, from_outside, bb)) {
+                            *t_hit = th; *uv_hit = disp_xy_uv(f, disp_piece_xyh(f, &pc, th));
+                            return 1;
+                        }
+                        side = bb;                       /* left the surface it starts on */
+                    } else if (split && (bb != side || ex > TX_DISP_CURVED_FINE || ey > TX_DISP_CURVED_FINE)) {
+                        next = 0;
+                    }
+                } else {
+                    next = 0;
+                }
+            }
+            if (next) {
+                ta = tb; ea = eb; fa = fb; fa_ok = fb_ok;
+                while (dep > 0 && (k & 1u)) { k >>= 1; --dep; scale *= 2.0f; }
+                if (dep == 0) break;
+                ++k;
+            } else {
+                ++dep; k <<= 1; scale *= 0.5f;
+            }
+            fb_ok = 0;
+        }
+    }
+    return 0;
+}
+#endif
+
 /* Nearest (any = 0) or any (any = 1) hit of the displaced surface with t in (tmin,
  * tmax); *uv = the primitive's (u, v) at the hit. NaN input and degenerate frames
  * give a miss (every range test is false for NaN). */
@@ -611,7 +892,13 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
     int hit;
     if ((method & 3u) == DISP_MAXMIP && f.shape == DISP_QUAD) {
         hit = disp_maxmip(hts, d, &f, A, B, any, from_outside, t, uv);
-    } else {
+    }
+#if TX_DISP_MAXMIP_CURVED
+    else if ((method & 3u) == DISP_MAXMIP && (f.shape == DISP_SPHERE || f.shape == DISP_CYLINDER)) {
+        hit = disp_maxmip_curved(hts, d, &f, A, B, any, from_outside, t, uv);
+    }
+#endif
+    else {
         uint steps = clamp(d->steps, 1u, TX_DISP_MAX_STEPS);
         if (method & DISP_ADAPTIVE) {
             float3 qa = f.q0 + A * dir;

@@ -390,8 +390,11 @@ def test_bad_input_names_the_field():
     d = tx.Displacement(tex, scale=0.1)
     with pytest.raises(tx.SceneError, match="kite: material.displacement.method: .*planar quads only"):
         tx.Quad((0, 0, 0), (1, 0, 0), (1.5, 0.3, 1), (0, 0, 1), material=tx.Material(displacement=d), name="kite")
-    with pytest.raises(tx.SceneError, match="ball: material.displacement.method: .*maxmip"):
-        tx.Sphere(material=tx.Material(displacement=tx.Displacement(tex, method="maxmip")), name="ball")
+    tx.Sphere(material=tx.Material(displacement=tx.Displacement(tex, method="maxmip")), name="ball")   # accepted
+    tx.Cylinder(material=tx.Material(displacement=tx.Displacement(tex, method="maxmip")), name="can")  # (issue 17)
+    with pytest.raises(tx.SceneError, match="can: material.displacement.offset: .*below the axis"):
+        tx.Cylinder(radius=0.5, material=tx.Material(displacement=tx.Displacement(tex, method="maxmip", offset=-1.0)),
+                    name="can")
     with pytest.raises(tx.SceneError, match="ball: material.displacement.offset: .*below the centre"):
         tx.Sphere(radius=0.5, material=tx.Material(displacement=tx.Displacement(tex, offset=-1.0)), name="ball")
     with pytest.raises(tx.SceneError, match="tri: material.displacement: method='maxmip' does not apply to a triangle"):
@@ -503,7 +506,7 @@ def test_bench_scene_files_and_their_height_maps():
         assert (d2.method, d2.steps, d2.refine, d2.adaptive) == ("search", 4, 2, True)
         assert d2.texture is d.texture and (d2.scale, d2.offset) == (d.scale, d.offset)
         assert scene.objects[0].material.displacement is d        # the loaded scene is unchanged
-    assert B.maxmip_applies(scenes["terrain"][0]) and not B.maxmip_applies(scenes["planet"][0])
+    assert B.maxmip_applies(scenes["terrain"][0]) and B.maxmip_applies(scenes["planet"][0])   # spheres too
 
 
 def test_stored_heights_are_unorm16_and_the_pyramid_stays_conservative():

@@ -67,6 +67,10 @@ def _all_kinds_scene():
     at("displaced sphere", layout.PRIM_DISPLACED, 4.0)
     s.add(tx.Cylinder(radius=0.6, z_range=(-0.6, 0.6), origin=(6, 0, 0), material=disp("search", adaptive=True)))
     at("displaced cylinder", layout.PRIM_DISPLACED, 6.0)
+    s.add(tx.Sphere(center=(8, 0, 0), radius=0.6, material=disp("maxmip")))
+    at("displaced sphere maxmip", layout.PRIM_DISPLACED, 8.0)
+    s.add(tx.Cylinder(radius=0.6, z_range=(-0.6, 0.6), origin=(10, 0, 0), material=disp("maxmip")))
+    at("displaced cylinder maxmip", layout.PRIM_DISPLACED, 10.0)
     return s, kinds
 
 

@@ -293,6 +293,9 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
                         bump=any(m.bump is not None for m in mats.materials),
                         normal_maps=any(m.normal_map is not None for m in mats.materials),
                         displacement=len(disp) > 0, displaced_meshes=bool(shells),
+                        displaced_curved_maxmip=bool(len(disp)) and bool(np.any(
+                            ((disp["method"] & 3) == layout.DISP_MAXMIP)
+                            & np.isin(disp["shape"], (layout.DISP_SPHERE, layout.DISP_CYLINDER)))),
                         instances=instances is not None,
                         stack_size=stack_size_for(wide.stack_depth(wide_depth)),
                         max_lights=max_lights_for(len(scene.lights)))

@@ -86,14 +86,11 @@ def check_material(m, where):
 
 
 def check_curved_displacement(shape, radius, what, where):
-    """The rules of a displaced sphere or cylinder: searched, not maxmip (no affine (u, v, h)
-    frame), and no height below the centre or axis (the shell would turn inside out)."""
+    """The rules of a displaced sphere or cylinder (searched or maxmip on the device): no
+    height below the centre or axis (the shell would turn inside out)."""
     d = shape.material.displacement
     if d is None or d.method == "tessellate":
         return
-    if d.method == "maxmip":
-        raise SceneError(f"{where}material.displacement.method: 'maxmip' needs (u, v, h) affine along rays: "
-                         f"planar quads only; {type(shape).__name__} {shape.name} takes 'search' or 'tessellate'")
     hmin = d.bounds()[0]
     if radius + hmin < 0:
         raise SceneError(f"{where}material.displacement.offset: the lowest height {hmin:g} is below the {what} "
