@@ -272,7 +272,8 @@ def test_packet_rule():
     tri = Features(shadows=True, triangles=True)
     assert packet_width(tri, "pocl", 16) == 8 and packet_width(tri, "pocl", 4) == 8
     assert packet_width(tri, "pocl", 3) == 0 and packet_width(tri, "pocl", 1) == 0
-    assert packet_width(tri, "nvidia", 16) == 0 and packet_width(tri, "intel-cpu", 16) == 0
+    assert packet_width(tri, "nvidia", 16) == 0 and packet_width(tri, "intel-cpu", 16) == 8
+    assert packet_width(tri, "intel-cpu", 3) == 0
     assert packet_width(tri, None, 16) == 0
     assert packet_width(Features(shadows=False, triangles=True), "pocl", 16) == 0
     assert packet_width(Features.generic(), "pocl", 16) == 8

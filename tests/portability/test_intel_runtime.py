@@ -181,6 +181,27 @@ def test_the_default_local_size_runs_vectorized(scenes_dir):
     assert rt.local_size() == opencl.LOCAL_SIZES["intel-cpu"]
 
 
+@needs_intel
+@pytest.mark.parametrize("path", ["bench/globe.toml", "bench/brick_wall.toml", "bench/textured_meshes.toml"])
+def test_packet_renders_use_work_groups_of_one_and_match_pocl(scenes_dir, path, monkeypatch):
+    """From 4 samples per pixel Intel's runtime traces packets of 8 (features.PACKET_WIDTHS) in
+    work-groups of one (opencl.PACKET_LOCAL_SIZES); below, no packets, the vectorized local
+    size. Both images agree with PoCL's within the device-agreement tolerance."""
+    monkeypatch.delenv("TEXRAY_PACKET", raising=False)
+    monkeypatch.delenv("TEXRAY_LOCAL_SIZE", raising=False)
+    scene = tx.Scene.load(scenes_dir / path)
+    for spp, packet, local in ((16, 8, opencl.PACKET_LOCAL_SIZES["intel-cpu"]), (2, 0, opencl.LOCAL_SIZES["intel-cpu"])):
+        ref = render(scene, 48, 32, spp, device=POCL[0].index, seed=1).rgb
+        got = render(scene, 48, 32, spp, device=INTEL[0].index, seed=1)
+        assert (got.stats["packet"], got.stats["local_size"]) == (packet, local), got.stats
+        diff = np.abs(got.rgb - ref).max(axis=2)
+        assert np.mean(diff > 0.02) <= 1e-3, f"{path} at {spp} spp: {np.mean(diff > 0.02):.3%} of pixels differ"
+        assert diff[diff <= 0.02].mean() < 1e-4, f"{path} at {spp} spp: mean abs difference {diff[diff <= 0.02].mean():.2g}"
+    rt = runtime(INTEL[0].index)
+    assert rt.local_size(None, 8) == 1 and rt.local_size(None, 0) == opencl.LOCAL_SIZES["intel-cpu"]
+    assert rt.local_size(4, 8) == 4                    # an explicit size wins
+
+
 # What the kernels' workaround relies on, on every device: a large helper with several
 # callers (left out of line, given a vector variant by a vectorizing compiler) receives its
 # float4 arguments intact in every work-item. (Intel's compiler 2026.2 fails this with

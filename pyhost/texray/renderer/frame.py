@@ -62,7 +62,8 @@ def device_program(cs, device, local_size, samples=0):
     if cs.texels is not None:
         check_device_limits(cs.texels.nbytes, list(cs.texture_names), rt.device.max_mem_alloc_size)
     options = compile_options(cs.features, rt.kind, samples)
-    return rt, rt.program(options), rt.local_size(local_size), options["TX_PACKET"]
+    packet = options["TX_PACKET"]
+    return rt, rt.program(options), rt.local_size(local_size, packet), packet
 
 
 def per_ray_bytes(cs, fused, aovs, adaptive):

@@ -44,6 +44,8 @@ class Tracer:
         self._k_closest = cl.Kernel(self.program, "intersect_packet" if closest_packet else "intersect")
         self._closest_items = self.packet if closest_packet else 1
         self._k_any = cl.Kernel(self.program, "occluded_packet" if self.packet else "occluded")
+        # the renderer's work-group size for this program (PACKET_LOCAL_SIZES, LOCAL_SIZES)
+        self.local = self.rt.local_size(None, self.packet)
 
     def _rays(self, org, dirs, tmin, tmax):
         n = len(dirs)
@@ -58,8 +60,8 @@ class Tracer:
         out = np.zeros(n, layout.HIT)
         hits = cl.Buffer(self.rt.context, cl.mem_flags.WRITE_ONLY,   # intersect.cl: 2n records with instances
                          max(out.nbytes * (2 if self.up.features.instances else 1), 16))
-        items = -(-n // self._closest_items)
-        ev = self._k_closest(self.rt.queue, (items,), None, rays, hits, np.uint32(n), *self.up.geom)
+        glob, loc = self.rt.launch_size(-(-n // self._closest_items), self.local)
+        ev = self._k_closest(self.rt.queue, glob, loc, rays, hits, np.uint32(n), *self.up.geom)
         cl.enqueue_copy(self.rt.queue, out, hits, wait_for=[ev])
         prim = out["prim"].astype(np.int64)
         prim[out["prim"] == 0xFFFFFFFF] = -1
@@ -70,7 +72,7 @@ class Tracer:
         n, rays = self._rays(org, dirs, tmin, tmax)
         out = np.zeros(n, np.uint8)
         buf = cl.Buffer(self.rt.context, cl.mem_flags.WRITE_ONLY, max(n, 16))
-        items = -(-n // self.packet) if self.packet else n
-        ev = self._k_any(self.rt.queue, (items,), None, rays, buf, np.uint32(n), *self.up.geom)
+        glob, loc = self.rt.launch_size(-(-n // self.packet) if self.packet else n, self.local)
+        ev = self._k_any(self.rt.queue, glob, loc, rays, buf, np.uint32(n), *self.up.geom)
         cl.enqueue_copy(self.rt.queue, out, buf, wait_for=[ev])
         return out.astype(bool), (ev.profile.end - ev.profile.start) * 1e-9
