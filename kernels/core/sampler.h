@@ -107,8 +107,8 @@ inline float2 cmj_sample(uint s, uint N, uint p)
 }
 
 #if TX_PACKET
-/* cmj_sample_m for the TX_PACKET consecutive samples s0, s0 + 1, ... of one pixel, one
- * per lane (stages/fused.cl's chunk of camera rays): the same integer hashes and the same
+/* cmj_sample_m for TX_PACKET samples, one per lane (stages/fused.cl's chunk of camera
+ * rays): the same integer hashes and the same
  * float operations, one statement each as in the scalar code (FP contraction, which this
  * file allows, fuses only within a statement), so every lane's position is cmj_sample_m's
  * bit for bit (tests/kernels/test_sampler.py). In the scalar code the three permutations
@@ -125,10 +125,10 @@ typedef TX_CMJ_VT(float) cmj_float;
 #define TX_CMJ_LANE_IDS (cmj_uint)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u)
 #endif
 
-/* cmj_permute lane by lane: a lane's walk stops where the scalar one breaks (its value
- * kept, selected by bit operations: see accel/packet.h PSEL_I), the loop when every lane
- * has stopped or after the same w + 1 steps. */
-inline cmj_uint cmj_permute_packet(cmj_uint i, uint l, uint p)
+/* cmj_permute lane by lane (each lane its own pattern p): a lane's walk stops where the
+ * scalar one breaks (its value kept, selected by bit operations: see accel/packet.h
+ * PSEL_I), the loop when every lane has stopped or after the same w + 1 steps. */
+inline cmj_uint cmj_permute_packet(cmj_uint i, uint l, cmj_uint p)
 {
     if (l <= 1u) return (cmj_uint)(0u);
     uint w = cmj_mask(l);
@@ -158,13 +158,14 @@ inline void cmj_divmod_packet(cmj_uint s, uint m, cmj_uint* q, cmj_uint* r)
     }
 }
 
-/* Samples s0 + lane of pattern p (cmj_sample_m's N, m) into x[lane], y[lane]. */
-inline void cmj_sample_packet(uint s0, uint N, uint m, uint p, float* x, float* y)
+/* Sample s[lane] of pattern p[lane] (cmj_sample_m's N, m, one per lane: stages/fused.cl's
+ * chunk, a pixel's consecutive samples or several pixels') into x[lane], y[lane]. */
+inline void cmj_sample_packet(cmj_uint s, uint N, uint m, cmj_uint p, float* x, float* y)
 {
     uint n = N / m;
-    uint pn = p * 0x51633e2du, px = p * 0x68bc21ebu, py = p * 0x02e5be93u;
-    uint pjx = p * 0x967a889bu, pjy = p * 0x368cc8b7u;
-    cmj_uint s = cmj_permute_packet((cmj_uint)(s0) + TX_CMJ_LANE_IDS, N, pn);
+    cmj_uint pn = p * 0x51633e2du, px = p * 0x68bc21ebu, py = p * 0x02e5be93u;
+    cmj_uint pjx = p * 0x967a889bu, pjy = p * 0x368cc8b7u;
+    s = cmj_permute_packet(s, N, pn);
     cmj_uint sd, sm;
     cmj_divmod_packet(s, m, &sd, &sm);
     cmj_uint sx = cmj_permute_packet(sm, m, px);

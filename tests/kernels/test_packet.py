@@ -261,35 +261,69 @@ def test_rendered_images_do_not_depend_on_the_packet_width(device, monkeypatch):
     assert lit.std() > 0.05 and np.isfinite(lit).all()
 
 
+@pytest.mark.parametrize("spp", [1, 2, 3, 5])
+def test_several_pixels_per_work_item_keep_the_image(device, monkeypatch, spp):
+    """Below the packet's width in samples per launch, each work-item takes several pixels
+    (8, 4, 2 at 1, 2, 3 spp; 1 at 5: pixels_per_item) so that their samples fill the packet: the
+    image is the scalar one bit for bit, on an image whose pixel count is no multiple of 8
+    (37 x 23: a work-item's last pixels past the tile's end), cut into tiles of 97 pixels
+    (every tile ends inside a work-item's group), with and without jitter."""
+    from texray.device import runtime
+    from texray.device.features import pixels_per_item
+    scene = tx.load_scene(tx_scene("bench/textured_meshes.toml"))
+    scene.lights.append(tx.PointLight(position=(0.5, -2.0, 0.5), intensity=(5.0, 5.0, 5.0)))
+    out = {}
+    for w in (0, *WIDTHS):
+        monkeypatch.setenv("TEXRAY_PACKET", str(w))
+        a = tx.render(scene, 37, 23, spp, device=device, seed=5)
+        b = tx.render(scene, 37, 23, spp, device=device, seed=5, tile_pixels=97, jitter=False)
+        assert a.stats["packet"] == w
+        out[w] = (a.rgb, b.rgb)
+    for w in WIDTHS:
+        assert np.array_equal(out[w][0], out[0][0]), f"width {w}, {spp} spp: the image differs"
+        assert np.array_equal(out[w][1], out[0][1]), f"width {w}, {spp} spp, tiles: the image differs"
+    assert out[0][0].std() > 0.05 and np.isfinite(out[0][0]).all()
+    monkeypatch.setenv("TEXRAY_PACKET", "8")
+    expect = {1: 8, 2: 4, 3: 2, 5: 1}[spp]
+    assert pixels_per_item(Features(shadows=True, triangles=True), runtime(device).kind, spp) == expect
+
+
 def tx_scene(rel):
     from conftest import ROOT
     return ROOT / "scenes" / rel
 
 
 def test_packet_rule():
-    """Packets where they measured faster: PoCL, shadows on, launches of at least
-    PACKET_MIN_SAMPLES samples per pixel."""
+    """Packets where they measured faster: PoCL and Intel's CPU runtime, shadows on; at any
+    spp, several pixels per work-item below 8 samples per launch (pixels_per_item), except
+    adaptive sampling's rounds (pixels one by one) below PACKET_MIN_SAMPLES."""
+    from texray.device.features import pixels_per_item
     tri = Features(shadows=True, triangles=True)
-    assert packet_width(tri, "pocl", 16) == 8 and packet_width(tri, "pocl", 4) == 8
-    assert packet_width(tri, "pocl", 3) == 0 and packet_width(tri, "pocl", 1) == 0
-    assert packet_width(tri, "nvidia", 16) == 0 and packet_width(tri, "intel-cpu", 16) == 8
-    assert packet_width(tri, "intel-cpu", 3) == 0
+    ada = Features(shadows=True, triangles=True, adaptive=True)
+    for kind in ("pocl", "intel-cpu"):
+        assert [packet_width(tri, kind, n) for n in (1, 2, 3, 4, 16)] == [8] * 5
+        assert [pixels_per_item(tri, kind, n) for n in (1, 2, 3, 4, 5, 8, 16)] == [8, 4, 2, 2, 1, 1, 1]
+        assert [packet_width(ada, kind, n) for n in (1, 3, 4, 8)] == [0, 0, 8, 8]
+        assert [pixels_per_item(ada, kind, n) for n in (1, 3, 4, 8)] == [1, 1, 1, 1]
+    assert packet_width(tri, "nvidia", 16) == 0 and pixels_per_item(tri, "nvidia", 1) == 1
     assert packet_width(tri, None, 16) == 0
     assert packet_width(Features(shadows=False, triangles=True), "pocl", 16) == 0
+    assert pixels_per_item(Features(shadows=False, triangles=True), "pocl", 1) == 1
     assert packet_width(Features.generic(), "pocl", 16) == 8
 
 
 def test_renders_choose_packets_by_samples_per_launch(device, monkeypatch):
-    """render() builds the packet program for its fused launches' sample count (4 spp and up,
-    adaptive rounds included; not 1 spp) where the device's rule has packets; stats say which."""
+    """render() builds the packet program where the device's rule has packets (any spp;
+    adaptive rounds of 4 samples and up); stats say which."""
     from texray.device import runtime
     from texray.renderer.frame import launch_samples
     monkeypatch.delenv("TEXRAY_PACKET", raising=False)
     assert launch_samples(64, 48, 16) == 16 and launch_samples(64, 48, 64, adaptive=0.1) == 8
     assert launch_samples(64, 48, 3) == 3
     scene = tx.load_scene(tx_scene("bench/textured_meshes.toml"))
-    width = {"pocl": 8}.get(runtime(device).kind, 0)
-    assert [tx.render(scene, 16, 12, spp, device=device).stats["packet"] for spp in (1, 4, 16)] == [0, width, width]
+    width = {"pocl": 8, "intel-cpu": 8}.get(runtime(device).kind, 0)
+    assert [tx.render(scene, 16, 12, spp, device=device).stats["packet"] for spp in (1, 4, 16)] == [width] * 3
+    assert tx.render(scene, 16, 12, 3, device=device, adaptive=0.1).stats["packet"] == 0
     assert tx.render(scene, 16, 12, 64, device=device, adaptive=0.1).stats["packet"] == width
     assert tx.render(tx.load_scene(tx_scene("bench/globe.toml")), 16, 12, 16, device=device).stats["packet"] == width
     assert tx.render(scene, 16, 12, 16, device=device, shadows=False).stats["packet"] == 0

@@ -92,20 +92,23 @@ _PACKET_KERNEL = r"""
 #include "core/common.h"
 #include "core/sampler.h"
 
-/* Per work-item: TX_PACKET samples s0[i] + lane of pattern p[i] with count N[i], by the
- * scalar cmj_sample_m and by cmj_sample_packet, as (x, y) pairs side by side. */
-__kernel void packet_vs_scalar(__global const uint* s0, __global const uint* N, __global const uint* p,
+/* Per work-item: TX_PACKET samples s[lane] of patterns p[lane] (one per lane, as a chunk
+ * spanning several pixels has) with count N[i], by the scalar cmj_sample_m and by
+ * cmj_sample_packet, as (x, y) pairs side by side. */
+__kernel void packet_vs_scalar(__global const uint* s, __global const uint* N, __global const uint* p,
                                __global float* out, uint n)
 {
     uint i = get_global_id(0);
     if (i >= n) return;
     uint m = cmj_grid_m(N[i]);
     float x[TX_PACKET], y[TX_PACKET];
-    cmj_sample_packet(s0[i], N[i], m, p[i], x, y);
+    uint sl[TX_PACKET], pl[TX_PACKET];
+    for (uint j = 0; j < TX_PACKET; ++j) { sl[j] = s[TX_PACKET * i + j]; pl[j] = p[TX_PACKET * i + j]; }
+    cmj_sample_packet(TX_CMJ_VT(vload)(0, sl), N[i], m, TX_CMJ_VT(vload)(0, pl), x, y);
     __global float* o = out + 4 * TX_PACKET * i;
     for (uint j = 0; j < TX_PACKET; ++j) {
-        float2 s = cmj_sample_m(s0[i] + j, N[i], m, p[i]);
-        o[4 * j] = s.x; o[4 * j + 1] = s.y; o[4 * j + 2] = x[j]; o[4 * j + 3] = y[j];
+        float2 v = cmj_sample_m(sl[j], N[i], m, pl[j]);
+        o[4 * j] = v.x; o[4 * j + 1] = v.y; o[4 * j + 2] = x[j]; o[4 * j + 3] = y[j];
     }
 }
 """
@@ -115,18 +118,24 @@ __kernel void packet_vs_scalar(__global const uint* s0, __global const uint* N, 
 def test_packet_samples_are_the_scalar_ones_bit_for_bit(rt, rng, width):
     """stages/fused.cl takes a chunk's sample positions from cmj_sample_packet: every lane
     must be cmj_sample_m's position bit for bit, for power-of-two counts (mask and shift)
-    and others (cycle walking and divisions), for lanes past the count (a partial chunk)
-    and for large counts and patterns."""
+    and others (cycle walking and divisions), for one pixel's consecutive samples (lanes past
+    the count too: a partial chunk) and for lanes of different pixels (their own patterns),
+    for large counts and patterns."""
     from kernel_harness import build_test_program
     counts = np.array([1, 2, 3, 4, 5, 7, 8, 12, 16, 30, 32, 64, 100, 127, 256, 1000, 4096, 65536, 70000],
                       np.uint32)
     N = np.repeat(counts, 40)
     s0 = (rng.integers(0, 1 << 20, N.size) % (N + width)).astype(np.uint32)   # some chunks run past N
     s0[::7] = 0
-    p = rng.integers(0, 1 << 32, N.size, dtype=np.uint64).astype(np.uint32)
+    s = (s0[:, None] + np.arange(width, dtype=np.uint32)).astype(np.uint32)
+    p = np.repeat(rng.integers(0, 1 << 32, N.size, dtype=np.uint64).astype(np.uint32)[:, None], width, axis=1)
+    mixed = np.arange(N.size) % 2 == 1                   # chunks over several pixels: a pattern per lane
+    p[mixed] = rng.integers(0, 1 << 32, (mixed.sum(), width), dtype=np.uint64).astype(np.uint32)
+    s[mixed] = (rng.integers(0, 1 << 20, (mixed.sum(), width)) % N[mixed, None]).astype(np.uint32)
     k = build_test_program(rt, (), _PACKET_KERNEL, (f"-DTX_PACKET={width}",))
     mf = cl.mem_flags
-    bufs = [cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a) for a in (s0, N, p)]
+    bufs = [cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a))
+            for a in (s, N, p)]
     out = np.zeros(N.size * width * 4, np.float32)
     bo = cl.Buffer(rt.context, mf.WRITE_ONLY, out.nbytes)
     k.packet_vs_scalar(rt.queue, (N.size,), None, *bufs, bo, np.uint32(N.size))

@@ -114,8 +114,24 @@ def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN
             raise DeviceError(f"TEXRAY_PACKET: expected 0, 8 or 16, got {override!r}")
         width = int(override)
     else:
-        width = PACKET_WIDTHS.get(device_kind, 0) if samples >= PACKET_MIN_SAMPLES else 0
+        full = samples >= PACKET_MIN_SAMPLES or not f.adaptive     # else pixels_per_item fills the lanes
+        width = PACKET_WIDTHS.get(device_kind, 0) if full else 0
     return width if f.shadows else 0
+
+
+def pixels_per_item(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES) -> int:
+    """The pixels each work-item of the fused kernel takes (stages/fused.cl's `pixels`): with
+    packets (:func:`packet_width`) and fewer samples per fused launch than lanes, the largest
+    power of two of pixels whose samples fit in one packet (1 spp: 8 pixels in a packet of 8;
+    3 spp: 2 pixels, 6 lanes), so that their camera and shadow rays fill it; else 1. Adaptive
+    sampling takes its pixels one by one from a list (1)."""
+    width = packet_width(f, device_kind, samples)
+    if not width or f.adaptive:
+        return 1
+    pixels = 1
+    while 2 * pixels * max(samples, 1) <= width:
+        pixels *= 2
+    return pixels
 
 
 def compile_options(f: Features, device_kind: str | None = None,
@@ -125,6 +141,7 @@ def compile_options(f: Features, device_kind: str | None = None,
     choose the packet width (:func:`packet_width`); no device kind: no packets."""
     return {
         "TX_PACKET": packet_width(f, device_kind, samples),
+        "TX_MULTI_PIXEL": int(pixels_per_item(f, device_kind, samples) > 1),
         "TX_TEXTURES": int(f.textures),
         "TX_VERTEX_NORMALS": int(f.vertex_normals),
         "TX_SPECULAR": int(f.specular),

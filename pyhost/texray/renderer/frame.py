@@ -19,7 +19,7 @@ import pyopencl as cl
 from ..compile.textures import check_device_limits
 from ..device import layout, runtime
 from ..device.buffers import Uploaded
-from ..device.features import compile_options
+from ..device.features import compile_options, pixels_per_item
 from ..errors import DeviceError
 from .adaptive import BLOCK_ROWS, round_size, standard_error, still_active
 from .tiling import fused_samples, plan_rows
@@ -109,17 +109,21 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
             last.wait()
             progress(min(1.0, run.passes / total_passes))
 
+    # the fused kernel's pixels per work-item, for the program device_program built
+    pixels = pixels_per_item(cs.features, rt.kind, launch_samples(width, height, spp, adaptive))
+    run.pixels = pixels
     for y0 in range(y_start, y_end, tile):
         tile_rows = min(tile, y_end - y0)
         n = tile_rows * width
         gsize, lsize = rt.launch_size(n, local)
+        fsize, flsize = rt.launch_size((n + pixels - 1) // pixels, local)
         oy = 0 if sink is not None else y0 - y_start
         cl.enqueue_fill_buffer(rt.queue, run.accum, np.float32(0), 0, n * 16)
         if adaptive is not None:
             run.adaptive_tile(n, y0, tile_rows, per_launch, report)
         elif fused:
             for first in range(0, spp, per_launch):
-                report(run.fused(gsize, lsize, n, y0, first, min(per_launch, spp - first)))
+                report(run.fused(fsize, flsize, n, y0, first, min(per_launch, spp - first)))
         else:
             for sample in range(spp):
                 report(run.staged_sample(gsize, lsize, n, y0, sample))
@@ -178,6 +182,7 @@ class _Run:
                  uploaded):
         self.rt, self.cs, self.local, self.adaptive = rt, cs, local, adaptive
         self.samples = 0
+        self.pixels = 1         # the fused kernel's pixels per work-item (render_rows sets it)
         self.width, self.height, self.spp, self.seed, self.jitter = width, height, spp, seed, jitter
         self.n_max = rows * width
         self.passes = 0
@@ -220,7 +225,7 @@ class _Run:
         """``count`` samples from ``first`` of every pixel of the tile at row y0."""
         u32, cs = np.uint32, self.cs
         return self._launch("render_fused", gsize, lsize, self.accum, self.active, self.sum_y2, u32(n), u32(y0),
-                            u32(first), u32(count),
+                            u32(first), u32(count), u32(self.pixels),
                             u32(self.seed), u32(self.jitter), *self.geom, *self.surface_args, *self.light,
                             cs.ambient, cs.background)
 
