@@ -94,10 +94,12 @@ def max_lights_for(n: int) -> int:
 # 0.5-0.97 of the scalar frame; README, Performance). A launch summing fewer than
 # PACKET_MIN_SAMPLES samples per pixel fills too few lanes: packets measured slower at 1 and
 # 2 spp. GPUs already spread work-items across SIMD lanes. Intel's CPU runtime does too
-# (16 wide), but its vectorized kernels ran the bench scenes at 1.5-2x the frame time of
-# packets of 8 in work-groups of one (texray.device.opencl.PACKET_LOCAL_SIZES), which come
-# within 10% of PoCL's packets (2026-12-03, this Xeon; README, Performance).
-PACKET_WIDTHS = {"pocl": 8, "intel-cpu": 8}
+# (16 wide). Its vectorized kernels ran the bench scenes at 1.5-2x the frame time of packets
+# of 8 in work-groups of one (TEXRAY_PACKET=8: texray.device.opencl.PACKET_LOCAL_SIZES), which
+# come within 10% of PoCL's packets, but it builds the packet programs 2-3x slower (a cold
+# build of the showcase's program: 47 s against 14 s; the globe's 4.7 against 2.2), so the
+# packets stay the user's choice there (2026-12-03, this Xeon; README, Performance).
+PACKET_WIDTHS = {"pocl": 8}
 PACKET_MIN_SAMPLES = 4
 
 
