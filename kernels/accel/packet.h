@@ -214,6 +214,31 @@ inline pint triangle_any_packet(const PacketRay* r, __global const TriVerts* tv,
     return triangle_packet(r, tv, m, r->tmax, (pint)(0), &t, &b1, &b2);
 }
 
+/* Whether leaves of `kind` have a packet test (prim_packet). */
+inline int prim_packet_kind(uint kind)
+{
+    return (TX_QUADS && kind == PRIM_QUAD) || (TX_SPHERES && kind == PRIM_SPHERE);
+}
+
+/* Primitive i of a leaf of `kind` (prim_packet_kind) against the lanes m, each with its
+ * (tmin, tmax): the lanes with a hit, their t into *t and, for a quad, the patch's (u, v)
+ * into *u, *v (a sphere leaves them). */
+inline pint prim_packet(TX_GEOM_PARAMS, const PacketRay* r, uint kind, uint i, pint m, pfloat tmax,
+                        pfloat* t, pfloat* u, pfloat* v)
+{
+#if TX_QUADS
+    if (kind == PRIM_QUAD) {
+        __global const QuadVerts* qv = quads + i;
+        return quad_intersect_packet(r, quad_p0(qv), quad_p1(qv), quad_p2(qv), quad_p3(qv), m, tmax, t, u, v);
+    }
+#endif
+#if TX_SPHERES
+    if (kind == PRIM_SPHERE)
+        return sphere_intersect_packet(r, spheres + i, m, tmax, t);
+#endif
+    return (pint)(0);
+}
+
 /* The leaf (first, ck) against the lanes m: the lanes with a hit. Triangles, quads and spheres
  * one at a time against the packet; every other kind lane by lane through leaf_hit. */
 inline pint leaf_any_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint ck, pint m)
@@ -228,28 +253,14 @@ inline pint leaf_any_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint
         }
         return hit;
     }
-#if TX_QUADS
-    if (kind == PRIM_QUAD) {
+    if (prim_packet_kind(kind)) {
         for (uint i = first; i < end; ++i) {
-            __global const QuadVerts* qv = quads + i;
             pfloat t, u, v;
-            hit |= quad_intersect_packet(r, quad_p0(qv), quad_p1(qv), quad_p2(qv), quad_p3(qv), m & ~hit, r->tmax,
-                                         &t, &u, &v);
+            hit |= prim_packet(TX_GEOM_ARGS, r, kind, i, m & ~hit, r->tmax, &t, &u, &v);
             if (!any(m & ~hit)) break;
         }
         return hit;
     }
-#endif
-#if TX_SPHERES
-    if (kind == PRIM_SPHERE) {
-        for (uint i = first; i < end; ++i) {
-            pfloat t;
-            hit |= sphere_intersect_packet(r, spheres + i, m & ~hit, r->tmax, &t);
-            if (!any(m & ~hit)) break;
-        }
-        return hit;
-    }
-#endif
     int ml[TX_PACKET], hl[TX_PACKET];
     PSTORE(m, ml);
     for (int j = 0; j < TX_PACKET; ++j) {
@@ -347,32 +358,17 @@ inline void leaf_closest_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, 
             triangle_closest_packet(r, tris + first + k, first + k, m, h);
         return;
     }
-#if TX_QUADS
-    if (kind == PRIM_QUAD) {
+    if (prim_packet_kind(kind)) {
         for (uint i = first; i < end; ++i) {
-            __global const QuadVerts* qv = quads + i;
-            pfloat t, u, v;
-            pint ok = quad_intersect_packet(r, quad_p0(qv), quad_p1(qv), quad_p2(qv), quad_p3(qv), m, h->t,
-                                            &t, &u, &v);
+            pfloat t, u = h->b1, v = h->b2;          /* a sphere keeps them, as leaf_hit does */
+            pint ok = prim_packet(TX_GEOM_ARGS, r, kind, i, m, h->t, &t, &u, &v);
             h->t = PSEL_F(ok, t, h->t);
             h->b1 = PSEL_F(ok, u, h->b1);
             h->b2 = PSEL_F(ok, v, h->b2);
-            h->prim = PSEL_I(ok, (pint)((int)((PRIM_QUAD << HIT_KIND_SHIFT) | i)), h->prim);
+            h->prim = PSEL_I(ok, (pint)((int)((kind << HIT_KIND_SHIFT) | i)), h->prim);
         }
         return;
     }
-#endif
-#if TX_SPHERES
-    if (kind == PRIM_SPHERE) {
-        for (uint i = first; i < end; ++i) {
-            pfloat t;
-            pint ok = sphere_intersect_packet(r, spheres + i, m, h->t, &t);
-            h->t = PSEL_F(ok, t, h->t);
-            h->prim = PSEL_I(ok, (pint)((int)((PRIM_SPHERE << HIT_KIND_SHIFT) | i)), h->prim);
-        }
-        return;
-    }
-#endif
     float ht[TX_PACKET], hb1[TX_PACKET], hb2[TX_PACKET];
     int hp[TX_PACKET], ml[TX_PACKET];
     PSTORE(h->t, ht); PSTORE(h->b1, hb1); PSTORE(h->b2, hb2); PSTORE(h->prim, hp); PSTORE(m, ml);

@@ -88,15 +88,23 @@ inline uint cmj_grid_m(uint N)
     return m;
 }
 
+/* Kensler's salts of the pattern p for the sample's permutation, its column and row
+ * permutations and its two jitters (cmj_sample_m, cmj_sample_packet). */
+#define TX_CMJ_SALT_S 0x51633e2du
+#define TX_CMJ_SALT_X 0x68bc21ebu
+#define TX_CMJ_SALT_Y 0x02e5be93u
+#define TX_CMJ_SALT_JX 0x967a889bu
+#define TX_CMJ_SALT_JY 0x368cc8b7u
+
 /* cmj_sample with the grid's m = cmj_grid_m(N) computed by the caller (once per pixel). */
 inline float2 cmj_sample_m(uint s, uint N, uint m, uint p)
 {
     uint n = N / m;
-    s = cmj_permute(s, N, p * 0x51633e2du);
-    uint sx = cmj_permute(s % m, m, p * 0x68bc21ebu);
-    uint sy = cmj_permute(s / m, n, p * 0x02e5be93u);
-    float jx = cmj_randfloat(s, p * 0x967a889bu);
-    float jy = cmj_randfloat(s, p * 0x368cc8b7u);
+    s = cmj_permute(s, N, p * TX_CMJ_SALT_S);
+    uint sx = cmj_permute(s % m, m, p * TX_CMJ_SALT_X);
+    uint sy = cmj_permute(s / m, n, p * TX_CMJ_SALT_Y);
+    float jx = cmj_randfloat(s, p * TX_CMJ_SALT_JX);
+    float jy = cmj_randfloat(s, p * TX_CMJ_SALT_JY);
     return (float2)(((float)(s % m) + ((float)sy + jx) / (float)n) / (float)m,
                     ((float)(s / m) + ((float)sx + jy) / (float)m) / (float)n);
 }
@@ -163,8 +171,8 @@ inline void cmj_divmod_packet(cmj_uint s, uint m, cmj_uint* q, cmj_uint* r)
 inline void cmj_sample_packet(cmj_uint s, uint N, uint m, cmj_uint p, float* x, float* y)
 {
     uint n = N / m;
-    cmj_uint pn = p * 0x51633e2du, px = p * 0x68bc21ebu, py = p * 0x02e5be93u;
-    cmj_uint pjx = p * 0x967a889bu, pjy = p * 0x368cc8b7u;
+    cmj_uint pn = p * TX_CMJ_SALT_S, px = p * TX_CMJ_SALT_X, py = p * TX_CMJ_SALT_Y;
+    cmj_uint pjx = p * TX_CMJ_SALT_JX, pjy = p * TX_CMJ_SALT_JY;
     s = cmj_permute_packet(s, N, pn);
     cmj_uint sd, sm;
     cmj_divmod_packet(s, m, &sd, &sm);

@@ -1,7 +1,7 @@
 #line 2 "stages/fused.cl"
-/* All five stages in one kernel: each work-item takes one pixel of the tile
- * through `nsamples` samples (raygen -> closest hit -> surface -> shadow rays
- * -> shading) and adds their sum to the pixel's accumulator. Same functions,
+/* All five stages in one kernel: each work-item takes one pixel of the tile (or a few
+ * neighbouring ones: `pixels` below) through `nsamples` samples (raygen -> closest hit ->
+ * surface -> shadow rays -> shading) and adds their sum to the pixel's accumulator. Same functions,
  * same samples, same image as the staged pipeline, without the per-ray
  * records between stages in global memory; the stage kernels stay for timing
  * each stage alone and for the AOV pass. */
@@ -9,7 +9,7 @@
 /* With TX_ADAPTIVE (adaptive sampling, texray.renderer.adaptive) the work-items take the
  * tile's pixels listed in `active` (n of them) and each also adds the squares of its
  * samples' luminance to sum_y2, the host's variance estimate; otherwise work-item gid
- * is pixel gid of the tile and both are NULL. */
+ * takes pixels gid * pixels .. of the tile and both are NULL. */
 #if TX_PACKET
 #define TX_CHUNK TX_PACKET
 #else
