@@ -1176,6 +1176,8 @@ def gen_random_scene(ch, knobs=frozenset()) -> Case:
         kw["jitter"] = False
     if ch.boolean(0.1):
         kw["shadows"] = False
+    if ch.boolean(0.2):
+        kw["light_sampling"] = "one"
     L.add(f"RESULT = {call('tx.render', Code('scene0'), ch.integer(4, 32), ch.integer(4, 32), ch.integer(1, 2), **kw)}")
     # Must render when float32 still resolves the objects (features of 0.2 S at distance far from
     # the origin, float32's relative step 1.2e-7); beyond that a clean SceneError is acceptable.
@@ -1897,6 +1899,7 @@ def gen_render_args(ch) -> Case:
         "texture_filter": [None, "nearest", "trilinear", "anisotropic", "x", 1],
         "specialize": [True, False, 0, "no", None],
         "jitter": [False, 0, "x"], "shadows": [False, 1, None],
+        "light_sampling": ["one", "all", "x", None, 1, "ONE"],
         "compiled": [Code("texray.compile.compile_scene(scene)"), "x", 1],
     }
     for name in ch.choice([1, 1, 2, 3]) * [None]:

@@ -217,7 +217,14 @@ inline pint triangle_any_packet(const PacketRay* r, __global const TriVerts* tv,
 /* Whether leaves of `kind` have a packet test (prim_packet). */
 inline int prim_packet_kind(uint kind)
 {
-    return (TX_QUADS && kind == PRIM_QUAD) || (TX_SPHERES && kind == PRIM_SPHERE);
+    int k = 0;                 /* #if, not TX_QUADS && ...: clang warns of || with a constant operand */
+#if TX_QUADS
+    k |= kind == PRIM_QUAD;
+#endif
+#if TX_SPHERES
+    k |= kind == PRIM_SPHERE;
+#endif
+    return k;
 }
 
 /* Primitive i of a leaf of `kind` (prim_packet_kind) against the lanes m, each with its

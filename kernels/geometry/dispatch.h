@@ -126,9 +126,11 @@ typedef struct { uint material, object, prim; } PrimIds;
 /* `static`: called once, so inlined into surface_eval (shading/surface.h explains).
  * Surface geometry of the hit h of the ray (org, dir) into *g, by kind (each kind's
  * *_geom: the point, its error bound, the geometric normal, uv and dP/du, dP/dv with
- * respect to uv); returns the hit's ids. h->prim must not be TX_MISS. */
+ * respect to uv); returns the hit's ids. h->prim must not be TX_MISS. pre: a sphere hit's
+ * Geom when the caller has it already (the fused kernel's packets: geometry/sphere_packet.h
+ * sphere_geom_packet, the same bits), else NULL. */
 static inline PrimIds hit_geom(TX_GEOM_PARAMS, __global const TriShade* tri_shade, __global const QuadShade* quad_shade,
-                        __global const float* uvs, float3 org, float3 dir, const HitRec* h, Geom* g)
+                        __global const float* uvs, float3 org, float3 dir, const HitRec* h, const Geom* pre, Geom* g)
 {
     uint kind = h->prim >> HIT_KIND_SHIFT, idx = h->prim & HIT_INDEX_MASK;
     PrimIds ids = { 0u, 0u, 0u };
@@ -140,7 +142,10 @@ static inline PrimIds hit_geom(TX_GEOM_PARAMS, __global const TriShade* tri_shad
 #if TX_SPHERES
     else if (kind == PRIM_SPHERE) {
         __global const Sphere* sp = spheres + idx;
-        sphere_geom(sp, org, dir, h->t, g);
+        if (pre)
+            *g = *pre;
+        else
+            sphere_geom(sp, org, dir, h->t, g);
         ids.material = sp->material; ids.object = sp->object; ids.prim = sp->prim;
     }
 #endif

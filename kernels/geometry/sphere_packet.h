@@ -1,7 +1,9 @@
 #line 2 "geometry/sphere_packet.h"
 /* geometry/sphere.h's sphere_intersect for every lane of a ray packet (accel/packet.h):
  * one sphere against TX_PACKET rays as floatN arithmetic, for the packet traversals'
- * sphere leaves (sphere_ray took a seventh of a textured globe's frame, lane by lane).
+ * sphere leaves (sphere_ray took a seventh of a textured globe's frame, lane by lane);
+ * and its sphere_geom for a packet's sphere hits (sphere_geom_packet: with sphere_uv's
+ * atan2 and hypot it took a third of the globe's kernel time, lane by lane).
  *
  * The same formulas in the same order as sphere_intersect, sphere_ray, sphere_c and
  * stable_roots, with their roundings (FP contraction off as there; accel/packet_vec.h's
@@ -22,16 +24,16 @@ inline pfloat pf_two_sum(pfloat a, pfloat b, pfloat* err)
     return s;
 }
 
-/* sphere_c lane by lane. */
-inline pfloat sphere_c_packet(pfloat3 fh, pfloat3 fl, float r)
+/* sphere_c lane by lane (a radius per lane). */
+inline pfloat sphere_c_packet(pfloat3 fh, pfloat3 fl, pfloat r)
 {
     pfloat sx = fh.x * fh.x, sy = fh.y * fh.y, sz = fh.z * fh.z;
-    float rr = r * r;
+    pfloat rr = r * r;
     pfloat err = fma(fh.x, fh.x, -sx) + fma(fh.y, fh.y, -sy) + fma(fh.z, fh.z, -sz) - fma(r, r, -rr)
                + 2.0f * pf3_dot(fh, fl);
     pfloat s = pf_two_sum(sx, sy, &err);
     s = pf_two_sum(s, sz, &err);
-    s = pf_two_sum(s, (pfloat)(-rr), &err);
+    s = pf_two_sum(s, -rr, &err);
     return s + err;
 }
 
@@ -48,7 +50,7 @@ inline pint sphere_intersect_packet(const PacketRay* pr, __global const Sphere* 
     pfloat3 fh, fl;
     pf3_two_diff(org, pf3_splat(cr.xyz), &fh, &fl);
     pfloat b = pf3_dot(fh, dir);
-    pfloat c = sphere_c_packet(fh, fl, r);
+    pfloat c = sphere_c_packet(fh, fl, (pfloat)(r));
     m &= ~((pr->tmin >= 0.0f) & (b > 0.0f) & (c > 0.0f));     /* sphere_intersect's early miss */
     if (!any(m)) return m;
     pfloat3 w = pf3_add(pf3_cross_accurate(fh, dir), pf3_cross(fl, dir));
@@ -67,6 +69,134 @@ inline pint sphere_intersect_packet(const PacketRay* pr, __global const Sphere* 
     pint hit_far = m & ~hit_near & far_ok & (t_far > pr->tmin) & (t_far < tmax);
     *t = PSEL_F(hit_near, t_near, t_far);
     return hit_near | hit_far;
+}
+
+/* core/transcendental.h's tx_atan_poly, tx_atan2 and tx_hypot, and geometry/spherical.h's
+ * azimuth_u, lane by lane: the same operations in the same order, the scalar branches as
+ * lane selects, so each lane's result is the scalar function's, bit for bit. */
+inline pfloat atan_poly_packet(pfloat a)
+{
+    pfloat z = a * a;
+    return ((((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z
+             - 3.33329491539e-1f) * z) * a + a;
+}
+
+inline pfloat atan2_packet(pfloat y, pfloat x)
+{
+    pint nan = (x != x) | (y != y);
+    pfloat ax = fabs(x), ay = fabs(y);
+    pint swap = ay > ax;
+    pfloat num = PSEL_F(swap, ax, ay), den = PSEL_F(swap, ay, ax);
+    pfloat a = PSEL_F(den == 0.0f, (pfloat)(0.0f), PSEL_F(num > FLT_MAX, (pfloat)(1.0f), num / den));
+    pfloat r = PSEL_F(a > 0.41421356f, M_PI_4_F + atan_poly_packet((a - 1.0f) / (a + 1.0f)), atan_poly_packet(a));
+    r = PSEL_F(swap, M_PI_2_F - r, r);
+    r = PSEL_F((as_pint(x) & (pint)(0x80000000)) != (pint)(0), M_PI_F - r, r);     /* x < 0, or x = -0 */
+    r = as_pfloat((as_pint(r) & (pint)(0x7fffffff)) | (as_pint(y) & (pint)(0x80000000)));
+    return PSEL_F(nan, x + y, r);
+}
+
+inline pfloat hypot_packet(pfloat x, pfloat y)
+{
+    pfloat ax = fabs(x), ay = fabs(y);
+    pfloat m = PMAX(ax, ay);
+    pfloat plain = sqrt(ax * ax + ay * ay);
+    pfloat s = PSEL_F(m > 1.0f, (pfloat)(8.4703295e-22f), (pfloat)(1.2676506e30f));     /* 2^-70, 2^100 */
+    pfloat sx = ax * s, sy = ay * s;
+    pfloat scaled = sqrt(sx * sx + sy * sy) / s;
+    pfloat r = PSEL_F(m > 0.0f, scaled, ax + ay);                      /* both zero, or a NaN */
+    r = PSEL_F((m >= 9.094947e-13f) & (m <= 1.1529215e18f), plain, r);
+    return PSEL_F((ax > FLT_MAX) | (ay > FLT_MAX), (pfloat)(INFINITY), r);
+}
+
+inline pfloat azimuth_u_packet(pfloat x, pfloat y)
+{
+    pfloat phi = atan2_packet(y, x);
+    phi = PSEL_F(phi < 0.0f, phi + 2.0f * M_PI_F, phi);
+    phi = PSEL_F((x != 0.0f) | (y != 0.0f), phi, (pfloat)(0.0f));
+    return PMIN(PMAX(phi * (0.5f * M_1_PI_F), (pfloat)(0.0f)), (pfloat)(TX_ONE_MINUS_ULP));
+}
+
+/* sphere_geom(spheres + idx[j], org_j, dir_j, t_j, g + j) for the lanes j of m: the
+ * packet's camera rays (org, dir) with their closest hits t on the spheres idx[j] (each
+ * lane's own sphere, gathered). sphere_ray, sphere_root_is_near, tx_unit_or, sphere_uv
+ * and sphere_tangents as floatN arithmetic, each lane's Geom sphere_geom's bit for bit
+ * (tests/kernels/test_packet.py); the other lanes' g are left as they were. */
+inline void sphere_geom_packet(__global const Sphere* spheres, const uint* idx, pint m, pfloat3 org, pfloat3 dir,
+                               pfloat t, Geom* g)
+{
+    int ml[TX_PACKET];
+    PSTORE(m, ml);
+    uint k0 = 0u;                                   /* a lane of m: the others read its sphere */
+    for (uint j = TX_PACKET; j-- > 0u;)
+        if (ml[j]) k0 = j;
+    float lc[4][TX_PACKET], lx[3][TX_PACKET], lz[3][TX_PACKET];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        __global const Sphere* sp = spheres + idx[ml[j] ? j : k0];
+        float4 cr = sphere_center_radius(sp);
+        float3 ax = sphere_axis_x(sp), az = sphere_axis_z(sp);
+        lc[0][j] = cr.x; lc[1][j] = cr.y; lc[2][j] = cr.z; lc[3][j] = cr.w;
+        lx[0][j] = ax.x; lx[1][j] = ax.y; lx[2][j] = ax.z;
+        lz[0][j] = az.x; lz[1][j] = az.y; lz[2][j] = az.z;
+    }
+    pfloat3 c = pf3((pfloat)(TX_LANES(lc[0])), (pfloat)(TX_LANES(lc[1])), (pfloat)(TX_LANES(lc[2])));
+    pfloat r = (pfloat)(TX_LANES(lc[3]));
+    pfloat3 AX = pf3((pfloat)(TX_LANES(lx[0])), (pfloat)(TX_LANES(lx[1])), (pfloat)(TX_LANES(lx[2])));
+    pfloat3 AZ = pf3((pfloat)(TX_LANES(lz[0])), (pfloat)(TX_LANES(lz[1])), (pfloat)(TX_LANES(lz[2])));
+    /* sphere_ray */
+    pfloat3 fh, fl;
+    pf3_two_diff(org, c, &fh, &fl);
+    pfloat a = pf3_dot(dir, dir);
+    pfloat3 w = pf3_add(pf3_cross_accurate(fh, dir), pf3_cross(fl, dir));
+    pfloat disc = r * r - pf3_dot(w, w) / a;
+    pfloat b = pf3_dot(fh, dir);
+    pfloat cc = sphere_c_packet(fh, fl, r);
+    float g6 = gamma_n(6.0f);
+    pint c_ok = fabs(cc) > 2.0f * g6 * g6 * (pf3_dot(fh, fh) + r * r);
+    pfloat q = -(b + copysign(sqrt(a * disc), b));                  /* stable_roots */
+    pfloat t_small = cc / q, t_large = q / a;
+    pint small_first = t_small <= t_large;
+    pfloat t_near = PSEL_F(small_first, t_small, t_large), t_far = PSEL_F(small_first, t_large, t_small);
+    pint near_ok = PSEL_I(small_first, c_ok, (pint)(-1));
+    /* sphere_root_is_near */
+    pint near = PSEL_I(t_near == t_far, near_ok, fabs(t - t_near) <= fabs(t - t_far));
+    /* sphere_geom */
+    pfloat inv_a = 1.0f / a;
+    pfloat half_chord = sqrt(PMAX(disc, (pfloat)(0.0f)) * inv_a);
+    pfloat3 v = pf3_scale(inv_a, pf3_cross(dir, w));
+    pfloat3 pc = pf3_add(v, pf3_scale(PSEL_F(near, -half_chord, half_chord), dir));
+    pfloat mx = PMAX(PMAX(fabs(pc.x), fabs(pc.y)), fabs(pc.z));      /* tx_unit_or(pc, axis_z) */
+    pfloat3 u = pf3(pc.x / mx, pc.y / mx, pc.z / mx);
+    pfloat3 n = pf3_sel((mx > 0.0f) & (mx <= FLT_MAX), pf3_scale(rsqrt(pf3_dot(u, u)), u), AZ);
+    pc = pf3_scale(r, n);
+    pfloat3 p = pf3_add(c, pc);
+    pfloat3 perr = pf3_add(pf3_scale((pfloat)(gamma_n(7.0f)), pf3_abs(pc)), pf3_scale((pfloat)(gamma_n(1.0f)), pf3_abs(p)));
+    pfloat3 AY = pf3_cross(AZ, AX);
+    pfloat x = pf3_dot(pc, AX), y = pf3_dot(pc, AY), z = pf3_dot(pc, AZ);
+    pfloat rho = hypot_packet(x, y);
+    pfloat gu = azimuth_u_packet(x, y);                                       /* sphere_uv */
+    pfloat gv = PMAX(1.0f - atan2_packet(rho, z) * M_1_PI_F, (pfloat)(0.0f));
+    pint pos = rho > 0.0f;                                                    /* sphere_tangents */
+    pfloat cos_phi = PSEL_F(pos, x / rho, (pfloat)(1.0f)), sin_phi = PSEL_F(pos, y / rho, (pfloat)(0.0f));
+    pfloat3 dp_dphi = pf3_sel(pos, pf3_sub(pf3_scale(x, AY), pf3_scale(y, AX)), pf3_scale(r, AY));
+    pfloat3 dp_dtheta = pf3_sub(pf3_scale(z, pf3_add(pf3_scale(cos_phi, AX), pf3_scale(sin_phi, AY))),
+                                pf3_scale(rho, AZ));
+    pfloat3 dpdu = pf3_scale((pfloat)(2.0f * M_PI_F), dp_dphi), dpdv = pf3_scale((pfloat)(-M_PI_F), dp_dtheta);
+    float o[17][TX_PACKET];
+    PSTORE(p.x, o[0]); PSTORE(p.y, o[1]); PSTORE(p.z, o[2]);
+    PSTORE(n.x, o[3]); PSTORE(n.y, o[4]); PSTORE(n.z, o[5]);
+    PSTORE(dpdu.x, o[6]); PSTORE(dpdu.y, o[7]); PSTORE(dpdu.z, o[8]);
+    PSTORE(dpdv.x, o[9]); PSTORE(dpdv.y, o[10]); PSTORE(dpdv.z, o[11]);
+    PSTORE(gu, o[12]); PSTORE(gv, o[13]);
+    PSTORE(perr.x, o[14]); PSTORE(perr.y, o[15]); PSTORE(perr.z, o[16]);
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        if (!ml[j]) continue;
+        g[j].p = (float3)(o[0][j], o[1][j], o[2][j]);
+        g[j].ng = (float3)(o[3][j], o[4][j], o[5][j]);
+        g[j].dpdu = (float3)(o[6][j], o[7][j], o[8][j]);
+        g[j].dpdv = (float3)(o[9][j], o[10][j], o[11][j]);
+        g[j].uv = (float2)(o[12][j], o[13][j]);
+        g[j].perr = (float3)(o[14][j], o[15][j], o[16][j]);
+    }
 }
 
 #endif

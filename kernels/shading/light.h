@@ -56,6 +56,18 @@ inline float3 light_term(const Surface* s, float3 v, float3 lpos, float3 intensi
     return intensity * (term / d2);
 }
 
+/* The intensity light i contributes with in a sample: its own; with TX_ONE_LIGHT, where each
+ * sample takes one of the n lights (core/sampler.h light_pick), n times its own, the picked
+ * light standing for all n. */
+inline float3 light_intensity(float3 intensity, uint n)
+{
+#if TX_ONE_LIGHT
+    return (float)n * intensity;
+#else
+    return intensity;
+#endif
+}
+
 /* The largest radiance a sample adds to a pixel, either sign: FLT_MAX / 2^24, so that the
  * accumulator of texray.validate.MAX_SPP = 2^24 samples stays finite. The host keeps
  * every input finite in float32, but intensity / d^2 of a strong light close to a

@@ -104,10 +104,10 @@ static inline void instance_vertex_normal(float3 dir, const HitRec* h, TX_GEOM_P
 
 /* Step 1, geometry: the kind's Geom and ids (hit_geom); for triangles with vertex
  * normals also their interpolation and the shadow-ray lift (shading/terminator.h). */
-static inline void surface_geometry(float3 org, float3 dir, const HitRec* h, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
-                             SurfaceGeom* sg)
+static inline void surface_geometry(float3 org, float3 dir, const HitRec* h, const Geom* pre, TX_GEOM_PARAMS,
+                                    TX_SURFACE_PARAMS, SurfaceGeom* sg)
 {
-    sg->ids = hit_geom(TX_GEOM_ARGS, tri_shade, quad_shade, uvs, org, dir, h, &sg->g);
+    sg->ids = hit_geom(TX_GEOM_ARGS, tri_shade, quad_shade, uvs, org, dir, h, pre, &sg->g);
     sg->vertex_normal = 0;
     sg->ns_raw = (float3)(0.0f);
     sg->lift = (float3)(0.0f);
@@ -252,11 +252,12 @@ static inline void surface_write(const SurfaceGeom* sg, float3 ng, float3 ns, co
 }
 
 /* Evaluates the hit h of the ray (org, dir) into *s (s->valid = 0 for a miss); with
- * TX_AOVS and aov != NULL also writes record gid of the AOV buffer. Out of line on
+ * TX_AOVS and aov != NULL also writes record gid of the AOV buffer. pre: the hit's Geom
+ * where the caller computed it (a sphere's, hit_geom), else NULL. Out of line on
  * Intel's CPU compiler, taking float4 (core/common.h, TX_OUT_OF_LINE); surface_eval
  * below is the float3 entry every caller uses. */
-TX_OUT_OF_LINE void surface_eval_v(float4 org4, float4 dir4, HitRec hit, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
-                                   __global float* aov, uint gid, Surface* s)
+TX_OUT_OF_LINE void surface_eval_v(float4 org4, float4 dir4, HitRec hit, const Geom* pre, TX_GEOM_PARAMS,
+                                   TX_SURFACE_PARAMS, __global float* aov, uint gid, Surface* s)
 {
     float3 org = org4.xyz, dir = dir4.xyz;     /* float4, not float3: core/common.h */
     const HitRec* h = &hit;
@@ -266,7 +267,7 @@ TX_OUT_OF_LINE void surface_eval_v(float4 org4, float4 dir4, HitRec hit, TX_GEOM
         return;
     }
     SurfaceGeom sg;
-    surface_geometry(org, dir, h, TX_GEOM_ARGS, TX_SURFACE_ARGS, &sg);
+    surface_geometry(org, dir, h, pre, TX_GEOM_ARGS, TX_SURFACE_ARGS, &sg);
     TexCoord tc;
     surface_texcoords(dir, h->t, objects, cam, image_w, image_h, spp, sg.ids.object, &sg.g, &tc);
     __global const Material* m = materials + sg.ids.material;
@@ -276,10 +277,10 @@ TX_OUT_OF_LINE void surface_eval_v(float4 org4, float4 dir4, HitRec hit, TX_GEOM
     surface_write(&sg, ng, ns, &mt, h->t * sqrt(dot3(dir, dir)), aov, gid, s);
 }
 
-inline void surface_eval(float3 org, float3 dir, HitRec hit, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
+inline void surface_eval(float3 org, float3 dir, HitRec hit, const Geom* pre, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
                          __global float* aov, uint gid, Surface* s)
 {
-    surface_eval_v((float4)(org, 0.0f), (float4)(dir, 0.0f), hit, TX_GEOM_ARGS, TX_SURFACE_ARGS, aov, gid, s);
+    surface_eval_v((float4)(org, 0.0f), (float4)(dir, 0.0f), hit, pre, TX_GEOM_ARGS, TX_SURFACE_ARGS, aov, gid, s);
 }
 
 #endif

@@ -9,7 +9,11 @@
 /* With TX_ADAPTIVE (adaptive sampling, texray.renderer.adaptive) the work-items take the
  * tile's pixels listed in `active` (n of them) and each also adds the squares of its
  * samples' luminance to sum_y2, the host's variance estimate; otherwise work-item gid
- * takes pixels gid * pixels .. of the tile and both are NULL. */
+ * takes pixels gid * pixels .. of the tile and both are NULL.
+ *
+ * With TX_ONE_LIGHT (render(light_sampling="one")) each sample traces one shadow ray, toward
+ * the light light_pick (core/sampler.h) gives it, and weighs that light by the light count;
+ * otherwise every sample sums every light. */
 #if TX_PACKET
 #define TX_CHUNK TX_PACKET
 #else
@@ -108,6 +112,20 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
         float ht[TX_CHUNK], hb1[TX_CHUNK], hb2[TX_CHUNK];
         int hp[TX_CHUNK];
         PSTORE(ph.t, ht); PSTORE(ph.b1, hb1); PSTORE(ph.b2, hb2); PSTORE(ph.prim, hp);
+#if TX_SPHERES
+        /* the sphere hits' geometry as one vector computation (geometry/sphere_packet.h) */
+        Geom pre[TX_CHUNK];
+        uint sidx[TX_CHUNK];
+        for (uint j = 0; j < (uint)TX_CHUNK; ++j) sidx[j] = (uint)hp[j] & HIT_INDEX_MASK;
+        pint on_sphere = (pint)(TX_LANES(act)) & ((as_puint(ph.prim) >> HIT_KIND_SHIFT) == (uint)PRIM_SPHERE);
+        int sph[TX_CHUNK];
+        PSTORE(on_sphere, sph);
+        if (any(on_sphere))
+            sphere_geom_packet(spheres, sidx, on_sphere, pf3(pr.ox, pr.oy, pr.oz), pf3(pr.dx, pr.dy, pr.dz), ph.t, pre);
+#define TX_PRE_GEOM(j) (sph[j] ? pre + (j) : (const Geom*)0)
+#else
+#define TX_PRE_GEOM(j) ((const Geom*)0)
+#endif
         for (uint j = 0; j < m; ++j) {
             float3 org = rorg[j], dir = rdir[j];
             HitRec h = { ht[j], hb1[j], hb2[j], (uint)hp[j] };
@@ -121,8 +139,11 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
             float3 org, dir;
             camera_ray(cam, image_w, image_h, ppx[q], ppy[q], jit, &org, &dir);
             HitRec h = bvh_closest(TX_GEOM_ARGS, org, dir, 0.0f, INFINITY);
+#define TX_PRE_GEOM(j) ((const Geom*)0)
 #endif
-            surface_eval(org, dir, h, TX_GEOM_ARGS, TX_SURFACE_ARGS, (__global float*)0, first + lp[j], s + j);
+            surface_eval(org, dir, h, TX_PRE_GEOM(j), TX_GEOM_ARGS, TX_SURFACE_ARGS, (__global float*)0, first + lp[j],
+                         s + j);
+#undef TX_PRE_GEOM
             c[j] = background.xyz;
             if (s[j].valid) {
                 v[j] = -normalize3(dir);
@@ -130,17 +151,37 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
                 sorg[j] = shadow_origin(s + j, lifted + j);
             }
         }
+        /* each light's shadow rays for the whole chunk; with TX_ONE_LIGHT only the samples that
+         * picked the light (core/sampler.h light_pick), a light no sample picked skipped */
+#if TX_ONE_LIGHT
+        uint pick[TX_CHUNK], block = light_block(spp, nlights);
+        for (uint j = 0; j < m; ++j)
+            pick[j] = light_pick(sample0 + k0 + j - lp[j] * nsamples, pattern[lp[j]], nlights, block);
+#define TX_PICKS pick
+#define TX_PICKED(j, i) (pick[j] == (i))
+#else
+#define TX_PICKS ((const uint*)0)
+#define TX_PICKED(j, i) 1
+#endif
         FOR_EACH_LIGHT(i, nlights) {
+#if TX_ONE_LIGHT
+            uint picked = 0u;
+            for (uint j = 0; j < m; ++j) picked |= pick[j] == i;
+            if (!picked) continue;
+#endif
             float3 lpos = vload3(0, lights[i].position);
 #if TX_PACKET
-            light_visible_packet(s, sorg, lifted, m, lpos, TX_GEOM_ARGS, vis);
+            light_visible_packet(s, sorg, lifted, m, lpos, TX_PICKS, i, TX_GEOM_ARGS, vis);
 #else
             for (uint j = 0; j < m; ++j)
-                vis[j] = s[j].valid && light_visible(s + j, sorg[j], lifted[j], lpos, TX_GEOM_ARGS);
+                vis[j] = s[j].valid && TX_PICKED(j, i) && light_visible(s + j, sorg[j], lifted[j], lpos, TX_GEOM_ARGS);
 #endif
+            float3 li = light_intensity(vload3(0, lights[i].intensity), nlights);
             for (uint j = 0; j < m; ++j)
-                if (vis[j]) c[j] += light_term(s + j, v[j], lpos, vload3(0, lights[i].intensity));
+                if (vis[j]) c[j] += light_term(s + j, v[j], lpos, li);
         }
+#undef TX_PICKS
+#undef TX_PICKED
         for (uint j = 0; j < m; ++j) {
             float3 cj = clamp_radiance(c[j]);
             sum[lp[j]] += cj;

@@ -1,6 +1,8 @@
 #line 2 "stages/shade.cl"
 /* Stage 5: the local illumination of every hit (shading/light.h) by the lights the
- * shadow stage found visible, accumulated per pixel. */
+ * shadow stage found visible, accumulated per pixel. With TX_ONE_LIGHT the shadow stage
+ * lets through at most the sample's own light (stages/shadow.cl), weighed by the light count
+ * (light_intensity). */
 
 __kernel void shade(__global const Ray* rays, __global const Surface* surf, __global const uchar* vis,
                     uint n, __global float4* accum,
@@ -15,7 +17,8 @@ __kernel void shade(__global const Ray* rays, __global const Surface* surf, __gl
         c = ambient.xyz * vload3(0, s.kd);
         FOR_EACH_LIGHT(i, nlights) {
             if (vis[(size_t)gid * nlights + i])
-                c += light_term(&s, v, vload3(0, lights[i].position), vload3(0, lights[i].intensity));
+                c += light_term(&s, v, vload3(0, lights[i].position),
+                                light_intensity(vload3(0, lights[i].intensity), nlights));
         }
     }
     accum[gid] += (float4)(clamp_radiance(c), 1.0f);   /* one work-item per pixel of the tile: no race */

@@ -13,7 +13,7 @@ __kernel void surface(__global const Ray* rays, __global const Hit* hits, __glob
     h.inst = hits[n + gid].prim;     /* stages/intersect.cl */
 #endif
     Surface s;
-    surface_eval(ray_org(rays + gid), ray_dir(rays + gid), h, TX_GEOM_ARGS, TX_SURFACE_ARGS, aov, gid, &s);
+    surface_eval(ray_org(rays + gid), ray_dir(rays + gid), h, (const Geom*)0, TX_GEOM_ARGS, TX_SURFACE_ARGS, aov, gid, &s);
     if (s.valid) out[gid] = s;
     else out[gid].valid = 0u;
 }

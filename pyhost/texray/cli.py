@@ -10,6 +10,7 @@ from . import __version__
 from .bench import main as bench_main
 from .compile import cache as scene_cache
 from .device import devices
+from .device.features import LIGHT_SAMPLING
 from .errors import TexrayError
 from .io.images import write_exr_layers
 from .renderer import render
@@ -75,12 +76,14 @@ def _cmd_render(args):
     spp = args.spp if args.spp is not None else settings.get("spp", 4)
     seed = args.seed if args.seed is not None else settings.get("seed", 0)
     adaptive = args.adaptive if args.adaptive is not None else settings.get("adaptive")
+    light_sampling = args.light_sampling or settings.get("light_sampling", "all")
     device = int(args.device) if args.device is not None and args.device.isdigit() else args.device
     bar = _Progress()
     try:
         with cluster_client(args.scheduler, args.workers) as client:
             image = render(scene, width=width, height=height, spp=spp, device=device, seed=seed, progress=bar,
-                           aovs=tuple(args.aov or ()), adaptive=adaptive, cache=not args.no_cache, client=client)
+                           aovs=tuple(args.aov or ()), adaptive=adaptive, cache=not args.no_cache, client=client,
+                           light_sampling=light_sampling)
     finally:
         bar.close()
     image.save(args.output)
@@ -91,6 +94,8 @@ def _cmd_render(args):
     s = image.stats
     db = s["device_bytes"]
     spp_text = f"{spp} spp" if adaptive is None else f"<= {spp} spp (adaptive {adaptive:g}: {s['samples'] / (width * height):.1f} on average)"
+    if s["features"].one_light:
+        spp_text += ", one light per sample"
     print(f"{args.output}: {width}x{height}, {spp_text}, {s['triangles']} triangles on {s['device']}: "
           f"render {s['render_s']:.2f} s (program build {s['program_build_s']:.2f} s, "
           f"scene {s['scene_compile_s']:.2f} s); device memory {sum(db.values()) / 2**20:.1f} MiB scene "
@@ -131,7 +136,7 @@ def main(argv=None):
     r = sub.add_parser("render", help="render a scene file (.toml, .gltf, .glb) to an image",
                        description="Render a scene file (.toml, see the README's \"Scene files\"; or a whole "
                                    "glTF 2.0 file, .gltf/.glb, see \"glTF scenes\") to an image. "
-                                   "--width, --height, --spp, --seed and --adaptive, when not given, "
+                                   "--width, --height, --spp, --seed, --adaptive and --light-sampling, when not given, "
                                    "come from the scene's [render] table, else the defaults below.")
     r.add_argument("scene", help="the scene file (.toml, .gltf, .glb); paths in it are relative to it")
     r.add_argument("--camera", metavar="NAME",
@@ -148,6 +153,10 @@ def main(argv=None):
                    help="adaptive sampling: a pixel stops once the standard error of its mean luminance is <= T "
                         "x max(mean, 0.1); --spp is then the most it takes (default: the scene's [render] "
                         "adaptive, else off)")
+    r.add_argument("--light-sampling", choices=LIGHT_SAMPLING,
+                   help="'all': every sample sums every light (a shadow ray each); 'one': each sample traces "
+                        "one shadow ray, toward one light weighted by the light count: fewer rays, more noise "
+                        "per sample with several lights (default: the scene's [render] light_sampling, else all)")
     r.add_argument("--device", help="'cpu', 'gpu', an index from 'texray devices', or a name substring "
                                     "(default: PYOPENCL_CTX if set, else a GPU, else PoCL's CPU device)")
     r.add_argument("--aov", action="append", metavar="NAME",

@@ -233,3 +233,27 @@ def test_mitsuba_bumpmap_matches_texray_analytic_bump():
         ours = tx.render(sc, 64, 48, 1, jitter=False).rgb
         assert np.abs(ours - flat).max() > 0.05                        # texray bumps too
         assert peers.compare_images(ours, bumped)["rel_mean_abs"] < 2e-3
+
+
+def test_one_light_per_sample_is_mitsubas_estimator_and_the_bench_times_it(tmp_path):
+    """Two lights and a shadowing sphere: texray's light_sampling="one" and Mitsuba's direct
+    integrator (one emitter sample per camera sample) converge to the same image, and
+    compare_peers.frames times texray both ways."""
+    pytest.importorskip("mitsuba")
+    from texray.bench import compare_peers
+    lights = [tx.PointLight((1.5, 2.0, 2.0), (8.0, 8.0, 8.0)), tx.PointLight((-2.0, 1.0, 1.5), (3.0, 4.0, 6.0))]
+    sc = _quad_scene(tx.Material(diffuse=(0.7, 0.6, 0.5)), lights=lights)
+    sc.add(tx.Sphere((0, 0, 0.4), 0.35, material=tx.Material(diffuse=(0.4, 0.6, 0.8)), name="ball"))
+    cmp, _ = peers.comparable_scene(sc)
+    theirs, _ = peers.mitsuba_render(sc, 48, 36, 256)
+    ours = tx.render(cmp, 48, 36, 256, light_sampling="one").rgb
+    d = peers.compare_images(ours, theirs)
+    assert abs(d["rel_mean_diff"]) < 3e-3 and d["rel_mean_abs"] < 0.01, d
+    path = tmp_path / "two_lights.toml"
+    path.write_text('[render]\nwidth = 32\nheight = 24\nspp = 4\n'
+                    '[camera]\neye = [0.3, 0.5, 3.0]\nlook_at = [0, 0, 0]\n'
+                    '[[lights]]\nposition = [1.5, 2.0, 2.0]\n[[lights]]\nposition = [-2.0, 1.0, 1.5]\n'
+                    '[[objects]]\ntype = "sphere"\nradius = 0.5\n')
+    f = compare_peers.frames(path, None, repeat=1, tte=False)
+    one = f["texray_one_light"]
+    assert one["render_s"]["median"] > 0 and one["diff"]["rmse"] < 0.2

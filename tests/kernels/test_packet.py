@@ -336,3 +336,121 @@ def test_packet_override_is_checked(monkeypatch):
         packet_width(Features(), "pocl")
     monkeypatch.setenv("TEXRAY_PACKET", "8")
     assert packet_width(Features(triangles=True, spheres=True), "nvidia") == 8
+
+
+_SPHERE_GEOM_KERNEL = r"""
+#include "core/common.h"
+#include "core/accurate.h"
+#include "geometry/sphere.h"
+#include "accel/packet.h"
+
+/* Work-item i: rays TX_PACKET i .. as one packet, ray k against sphere sidx[k]: sphere_geom
+ * lane by lane (out_s) and sphere_geom_packet over the lanes with a hit (out_p), 17 floats
+ * each (p, ng, dpdu, dpdv, uv, perr); hit[k] whether sphere_intersect hit. */
+__kernel void sphere_geoms(__global const Sphere* spheres, __global const uint* sidx, __global const float* rays,
+                           __global float* out_s, __global float* out_p, __global int* hit, uint n)
+{
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    PacketRay pr;
+    uint idx[TX_PACKET];
+    int act[TX_PACKET];
+    float tt[TX_PACKET];
+    Geom gs[TX_PACKET], gp[TX_PACKET];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        uint k = TX_PACKET * i + j;
+        float3 o = vload3(2 * k, rays), d = vload3(2 * k + 1, rays);
+        idx[j] = sidx[k];
+        float t = 0.0f;
+        act[j] = sphere_intersect(spheres + idx[j], o, d, 0.0f, INFINITY, &t) ? -1 : 0;
+        tt[j] = t;
+        if (act[j]) sphere_geom(spheres + idx[j], o, d, t, gs + j);
+        packet_set_lane(&pr, j, o, d, 0.0f, INFINITY);
+    }
+    packet_setup(&pr);
+    pint m = (pint)(TX_LANES(act));
+    if (any(m))
+        sphere_geom_packet(spheres, idx, m, pf3(pr.ox, pr.oy, pr.oz), pf3(pr.dx, pr.dy, pr.dz), (pfloat)(TX_LANES(tt)),
+                           gp);
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        uint k = TX_PACKET * i + j;
+        hit[k] = act[j];
+        if (!act[j]) continue;
+        const Geom* g2[2] = { gs + j, gp + j };
+        __global float* outs[2] = { out_s + 17 * k, out_p + 17 * k };
+        for (int v = 0; v < 2; ++v) {
+            const Geom* g = g2[v];
+            __global float* o = outs[v];
+            vstore3(g->p, 0, o); vstore3(g->ng, 0, o + 3); vstore3(g->dpdu, 0, o + 6); vstore3(g->dpdv, 0, o + 9);
+            vstore2(g->uv, 0, o + 12); vstore3(g->perr, 0, o + 14);
+        }
+    }
+}
+"""
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_packet_sphere_geometry_equals_sphere_geom(rt, rng, width):
+    """sphere_geom_packet (geometry/sphere_packet.h: the fused kernel's sphere hits, with its
+    own atan2, hypot and unit vector) gives sphere_geom's point, normals, tangents, uv and
+    error bound bit for bit, each lane on its own sphere: rotated frames, random rays, rays
+    from inside, rays through the poles and onto the phi = 0 seam, grazing rays, a sphere of
+    radius 1e-3 at 1e4, one 1e5 from the origin, and radii 2e-14, 1e4 and 1e18."""
+    import pyopencl as cl
+    from kernel_harness import build_test_program
+    from texray.device import layout
+    from texray.device.features import compile_options
+
+    def frame():
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        return q[:, 0], q[:, 2]
+    spheres = np.zeros(8, layout.SPHERE)
+    centres = [(0, 0, 0), (0.3, -0.2, 0.1), (1e4, -2e3, 5e3), (0, 0, 0), (1e5, 1e5, -1e5), (2, 1, -1),
+               (1e-13, 0, 0), (0, 0, 0)]
+    radii = [1.0, 0.5, 1e-3, 1e4, 3.0, 0.7, 2e-14, 1e18]      # 2e-14: tx_hypot scales up; 1e18: the host's limit
+    for i, (c, r) in enumerate(zip(centres, radii)):
+        ax, az = ((1, 0, 0), (0, 0, 1)) if i in (0, 3) else frame()
+        spheres[i]["center"], spheres[i]["radius"], spheres[i]["axis_x"], spheres[i]["axis_z"] = c, r, ax, az
+    n = 4096
+    sid = rng.integers(0, len(spheres), n).astype(np.uint32)
+    c = np.array(centres, np.float64)[sid]
+    r = np.array(radii, np.float64)[sid][:, None]
+    az = spheres["axis_z"][sid].astype(np.float64)
+    ax = spheres["axis_x"][sid].astype(np.float64)
+    u = rng.normal(size=(n, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    kind = np.arange(n) % 6
+    target = c + r * u                                               # random points on the sphere
+    target[kind == 1] = (c + r * az * np.where(rng.random((n, 1)) < 0.5, 1, -1))[kind == 1]   # the poles
+    target[kind == 2] = (c + r * ax)[kind == 2]                      # the seam, phi = 0
+    org = target + r * 4 * rng.normal(size=(n, 3))                    # from outside, any side
+    org[kind == 3] = (c + 0.3 * r * rng.normal(size=(n, 3)))[kind == 3]     # from inside: the far root
+    tangent = np.cross(u, rng.normal(size=(n, 3)))
+    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    graze = c + r * u * (1 - 10.0 ** rng.uniform(-6, -2, (n, 1)))
+    org[kind == 4] = (graze - 3 * r * tangent)[kind == 4]
+    target[kind == 4] = graze[kind == 4]
+    d = target - org
+    d /= np.linalg.norm(d, axis=1, keepdims=True)     # unit: |f x d| of |f| = 4e18 and |d| = 4e18 overflows
+    rays = np.stack([org, d], axis=1).astype(np.float32)
+    opts = {**compile_options(Features(spheres=True, triangles=False)), "TX_PACKET": width}
+    k = build_test_program(rt, (), _SPHERE_GEOM_KERNEL, [f"-D{a}={b}" for a, b in opts.items()])
+    mf = cl.mem_flags
+    ins = [cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a))
+           for a in (spheres, sid, rays)]
+    out_s, out_p = np.zeros((n, 17), np.float32), np.zeros((n, 17), np.float32)
+    hit = np.zeros(n, np.int32)
+    bufs = [cl.Buffer(rt.context, mf.WRITE_ONLY, a.nbytes) for a in (out_s, out_p, hit)]
+    k.sphere_geoms(rt.queue, (n // width,), None, *ins, *bufs, np.uint32(n // width))
+    for a, b in zip((out_s, out_p, hit), bufs):
+        cl.enqueue_copy(rt.queue, a, b)
+    h = hit != 0
+    assert h.mean() > 0.5 and all(h[kind == i].any() for i in range(6)), [h[kind == i].mean() for i in range(6)]
+    assert all(h[sid == i].any() for i in range(len(spheres))), str([h[sid == i].mean() for i in range(len(spheres))])
+    same = out_s[h].view(np.uint32) == out_p[h].view(np.uint32)
+    bad = np.flatnonzero(~same.all(axis=1))
+    assert bad.size == 0, f"{bad.size} hits differ, e.g. fields {np.flatnonzero(~same[bad[0]])}: " \
+                          f"{out_s[h][bad[0]]} against {out_p[h][bad[0]]}"
+    # the poles and the seam were reached: u = 0 at the seam, v in {0, 1} at a pole
+    uv = out_s[h][:, 12:14]
+    assert (uv[:, 0] == 0).any() and ((uv[:, 1] < 1e-3) | (uv[:, 1] > 1 - 1e-3)).any()

@@ -18,12 +18,14 @@ def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
         # 64-77 s on Intel's runtime (the README's "Default device"), a twentieth of the CI budget:
         # its specialized programs are built by the other portability tests; TEXRAY_TEST_SLOW_BUILDS=1 runs it.
         pytest.skip("the generic program on Intel's runtime takes over a minute; TEXRAY_TEST_SLOW_BUILDS=1 builds it")
-    f = Features.generic() if which == "generic" else dataclasses.replace(
+    f = dataclasses.replace(Features.generic(), one_light=True) if which == "generic" else dataclasses.replace(
         Features(), shadows=False, max_lights=1, stack_size=32)
     options = compile_options(f)
     if which.startswith("packet"):     # shadow-ray packets (accel/packet.h), on any device
         f = Features(textures=True, vertex_normals=True, specular=True, filter_bilinear=True, max_lights=2,
                      stack_size=32, quads=True, spheres=True)      # quads: geometry/quad_packet.h
+        if which == "packet16":        # triangles only, one light per sample (stages/fused.cl TX_ONE_LIGHT)
+            f = dataclasses.replace(f, quads=False, spheres=False, one_light=True)
         options = {**compile_options(f), "TX_PACKET": int(which.removeprefix("packet"))}
     prg = any_rt.program(options, extra_options=("-Werror",))
     names = set(prg.get_info(cl.program_info.KERNEL_NAMES).split(";"))

@@ -55,7 +55,7 @@ def test_generic_features_cover_every_scene(scenes_dir):
 def test_generic_set_turns_on_every_flag():
     g = Features.generic()
     for fld in dataclasses.fields(Features):
-        if fld.name in ("aovs", "adaptive"):          # render settings, not capabilities
+        if fld.name in ("aovs", "adaptive", "one_light"):          # render settings, not capabilities
             assert getattr(g, fld.name) is False
         elif isinstance(getattr(g, fld.name), bool):
             assert getattr(g, fld.name) is True, fld.name
@@ -63,7 +63,7 @@ def test_generic_set_turns_on_every_flag():
     # every flag reaches the compiler
     opts = compile_options(g)
     assert all(v == 1 for k, v in opts.items()
-               if k not in ("TX_STACK_SIZE", "TX_MAX_LIGHTS", "TX_AOVS", "TX_ADAPTIVE", "TX_PACKET", "TX_MULTI_PIXEL"))
+               if k not in ("TX_STACK_SIZE", "TX_MAX_LIGHTS", "TX_AOVS", "TX_ADAPTIVE", "TX_ONE_LIGHT", "TX_PACKET", "TX_MULTI_PIXEL"))
     # packets (and pixels per work-item with them) are the device's choice
     # (features.packet_width, pixels_per_item), not a capability: none without one
     assert opts["TX_PACKET"] == 0 and opts["TX_MULTI_PIXEL"] == 0

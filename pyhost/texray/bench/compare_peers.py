@@ -6,10 +6,13 @@
    texray (device kernel time) against Embree (embreex, 1 and all threads), with their hit agreement.
 2. Frames: the given scenes at their own size and spp, ambient and specular 0 in both
    (``peers.comparable_scene``): texray against Mitsuba 3 (``llvm_ad_rgb``, ``direct``), times
-   and image difference.
+   and image difference. Mitsuba's ``direct`` traces one shadow ray per camera sample toward
+   one light; with several lights texray is timed both ways: every light per sample (its
+   default) and ``light_sampling="one"``, the same estimator as Mitsuba's (equal work).
 3. Time to error: Mitsuba's error at that spp (RMSE against its own REF_SPP-sample image)
    is the target; texray's time to it is its fastest setting (spp from TTE_SPP, or
-   adaptive sampling with a threshold from TTE_ADAPTIVE) whose RMSE against texray's own
+   adaptive sampling with a threshold from TTE_ADAPTIVE; each spp also with one light per
+   sample where there are several lights) whose RMSE against texray's own
    REF_SPP-sample image is no larger. Each renderer against its own converged image, so
    that their conventions (filtering, sampling) do not count as error.
 
@@ -50,6 +53,8 @@ def time_to_error(cmp, w, h, s, device, mitsuba_rgb, mitsuba_s):
     ref = tx.render(cmp, w, h, REF_SPP, device=device, seed=7).rgb
     tried = []
     settings = [{"spp": n} for n in TTE_SPP] + [{"spp": 2 * s, "adaptive": t} for t in TTE_ADAPTIVE]
+    if len(cmp.lights) >= 2:
+        settings += [{"spp": n, "light_sampling": "one"} for n in TTE_SPP]
     for kw in settings:
         tx.render(cmp, w, h, device=device, **kw)                     # warm-up: the program's build
         r = tx.render(cmp, w, h, device=device, seed=1, **kw)
@@ -97,6 +102,11 @@ def frames(path, device, repeat, width=None, height=None, spp=None, tte=True):
     diff = peers.compare_images(runs[-1].rgb, rgb)
     out = {"scene": str(path), "width": w, "height": h, "spp": s, "texray": ours, "mitsuba": st,
            "diff": diff, "notes": notes + st["notes"]}
+    if len(cmp.lights) >= 2:                 # Mitsuba's estimator: one light per camera sample
+        tx.render(cmp, w, h, s, device=device, light_sampling="one")
+        one = [tx.render(cmp, w, h, s, device=device, light_sampling="one") for _ in range(repeat)]
+        out["texray_one_light"] = {"render_s": median_spread([r.stats["render_s"] for r in one]),
+                                   "diff": peers.compare_images(one[-1].rgb, rgb)}
     if tte:
         out["time_to_error"] = time_to_error(cmp, w, h, s, device, rgb, st["render_s"]["median"])
     return out
@@ -155,7 +165,14 @@ def bench_peers(device, repeat=5, triangles=1_000_000, size=1024, scenes=(), thr
                       f" {f['mitsuba']['load_s']:9.3f} | {f['mitsuba']['first_render_s']:8.3f} | {d['rmse']:7.4f} |"
                       f" {100 * d['rel_mean_diff']:7.2f}% | {100 * d['rel_mean_abs']:6.2f}% |"
                       f" {100 * d['frac_pixels_over']:6.2f}% |\n")
-        out.write("ratio = Mitsuba / texray render time (> 1: texray faster)\n")
+            if "texray_one_light" in f:           # the same scene, Mitsuba's estimator
+                o, d = f["texray_one_light"]["render_s"], f["texray_one_light"]["diff"]
+                name = "  1 light per sample"
+                out.write(f"| {name:<24} | {cell(o, '.3f', 19)} | {cell(m, '.3f', 19)} | {m['median'] / o['median']:5.2f} |"
+                          f" {'':>9} | {'':>8} | {d['rmse']:7.4f} | {100 * d['rel_mean_diff']:7.2f}% |"
+                          f" {100 * d['rel_mean_abs']:6.2f}% | {100 * d['frac_pixels_over']:6.2f}% |\n")
+        out.write("ratio = Mitsuba / texray render time (> 1: texray faster); '1 light per sample': texray with "
+                  "light_sampling='one', Mitsuba's estimator (equal work)\n")
         out.write(f"\nTime to Mitsuba's error at the scene's spp (each renderer's RMSE against its own {REF_SPP}-spp "
                   "image); texray's fastest setting that reaches it\n")
         out.write(f"| {'scene':<24} | {'target RMSE':>11} | {'Mitsuba s':>9} | {'texray s':>8} | {'ratio':>5} |"
@@ -173,6 +190,8 @@ def bench_peers(device, repeat=5, triangles=1_000_000, size=1024, scenes=(), thr
                 continue
             setting = (f"{b['spp']} spp" if "adaptive" not in b else
                        f"adaptive {b['adaptive']:g}, <= {b['spp']} spp ({b['mean_spp']:.1f})")
+            if b.get("light_sampling") == "one":
+                setting += ", 1 light"
             out.write(f"| {name:<24} | {t['target_rmse']:11.5f} | {t['mitsuba_s']:9.3f} | {b['render_s']:8.3f} |"
                       f" {t['mitsuba_s'] / b['render_s']:5.2f} | {setting:<26} |\n")
         out.write("ratio = Mitsuba's time / texray's time to the same error (> 1: texray faster)\n")

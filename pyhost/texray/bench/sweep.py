@@ -97,6 +97,9 @@ def series_for(scene, compiled, spp_values=SPP_VALUES, filter_spp=FILTER_SPP):
     out = [("spp", [(f"{s} spp", {"spp": s}) for s in spp_values]),
            (f"adaptive <= {ADAPTIVE_SPP} spp", [(f"adaptive {t}", {"spp": ADAPTIVE_SPP, "adaptive": t})
                                                  for t in ADAPTIVE_THRESHOLDS])]
+    if len(scene.lights) >= 2:
+        out.append(("one light per sample", [(f"1 light {s} spp", {"spp": s, "light_sampling": "one"})
+                                             for s in spp_values]))
     if compiled.textures is not None:
         for f in FILTERS:
             out.append((f"filter={f}", [(f"{f} {s} spp", {"spp": s, "texture_filter": f}) for s in filter_spp]))

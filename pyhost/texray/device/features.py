@@ -9,6 +9,10 @@ from dataclasses import dataclass
 from ..errors import DeviceError
 
 
+# render(light_sampling=...): every light in every sample, or one light per sample (Features.one_light)
+LIGHT_SAMPLING = ("all", "one")
+
+
 @dataclass(frozen=True)
 class Features:
     textures: bool = False         # any material samples a texture
@@ -35,6 +39,7 @@ class Features:
     displaced_curved_maxmip: bool = False  # some sphere or cylinder is displaced by maxmip (disp_maxmip_curved)
     instances: bool = False        # some mesh is instanced (two-level BVH: kernels/accel/instance.h)
     adaptive: bool = False         # the fused kernel samples listed pixels and sums Y^2 (texray.renderer.adaptive)
+    one_light: bool = False        # each sample takes one of the >= 2 lights (render(light_sampling="one"))
     stack_size: int = 64           # BVH traversal stack; >= the tree's depth
     max_lights: int = 0            # bound on the light count (1, 2, 4 or 8: loops unrolled); 0 = any count
 
@@ -43,7 +48,7 @@ class Features:
         """Every feature compiled in (AOVs aside): the one program that renders any scene
         whose BVH fits ``stack_size``; the benchmark's baseline for specialization."""
         flags = {f.name: True for f in dataclasses.fields(cls) if f.type in (bool, "bool")}
-        flags["aovs"] = flags["adaptive"] = False      # render settings, not scene features
+        flags["aovs"] = flags["adaptive"] = flags["one_light"] = False      # render settings, not scene features
         return cls(**flags, stack_size=stack_size, max_lights=0)
 
     def covers(self, other: "Features") -> bool:
@@ -52,6 +57,9 @@ class Features:
             a, b = getattr(self, f.name), getattr(other, f.name)
             if f.name == "stack_size":
                 if a < b:
+                    return False
+            elif f.name == "one_light":              # a different estimator: the same setting only
+                if a != b:
                     return False
             elif f.name == "max_lights":
                 if a and (not b or a < b):
@@ -63,9 +71,10 @@ class Features:
 
 def generic_features(needed: Features) -> Features:
     """The generic program's features for a scene that needs ``needed``: every
-    capability compiled in; the render settings (shadows, AOVs, adaptive sampling) kept."""
+    capability compiled in; the render settings (shadows, AOVs, adaptive sampling, light sampling) kept."""
     g = Features.generic(stack_size=max(128, needed.stack_size))
-    return dataclasses.replace(g, shadows=needed.shadows, aovs=needed.aovs, adaptive=needed.adaptive)
+    return dataclasses.replace(g, shadows=needed.shadows, aovs=needed.aovs, adaptive=needed.adaptive,
+                               one_light=needed.one_light)
 
 
 def stack_size_for(depth: int) -> int:
@@ -155,6 +164,7 @@ def compile_options(f: Features, device_kind: str | None = None,
         "TX_PROJECTIONS": int(f.projections),
         "TX_AOVS": int(f.aovs),
         "TX_ADAPTIVE": int(f.adaptive),
+        "TX_ONE_LIGHT": int(f.one_light),
         "TX_BUMP": int(f.bump),
         "TX_NORMAL_MAPS": int(f.normal_maps),
         "TX_DISPLACEMENT": int(f.displacement),

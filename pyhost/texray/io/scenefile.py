@@ -14,6 +14,7 @@ try:
 except ModuleNotFoundError:        # Python < 3.11
     import tomli as tomllib
 
+from ..device.features import LIGHT_SAMPLING
 from ..errors import SceneError
 from ..procedural import meshes as _meshes
 from ..scene import (Bump, Camera, Cylinder, Displacement, Instance, Label, Material, Mesh, NormalMap, PointLight,
@@ -30,7 +31,7 @@ _SCHEMA = {
          "materials": dict, "objects": list},
     "camera": {"eye": _VEC, "look_at": _VEC, "up": _VEC, "fov_y": _NUM},
     "scene": {"ambient": _VEC, "background": _VEC},
-    "render": {"width": int, "height": int, "spp": int, "seed": int, "adaptive": _NUM},
+    "render": {"width": int, "height": int, "spp": int, "seed": int, "adaptive": _NUM, "light_sampling": str},
     "lights": {"position": _VEC, "intensity": _VEC},
     "textures": {"file": str, "colorspace": str, "wrap": str, "uv_transform": dict, "filter": str,
                  "max_aniso": int, "procedural": str, "params": dict},
@@ -114,10 +115,12 @@ def _build(doc, base, path):
     _check_table(sc, "scene", "scene")
     settings = doc.get("render", {})
     _check_table(settings, "render", "render")
-    sizes = {k: v for k, v in settings.items() if k != "adaptive"}
+    sizes = {k: v for k, v in settings.items() if k not in ("adaptive", "light_sampling")}
     V.render_settings(**({"width": 1, "height": 1, "spp": 1, "seed": 0} | sizes), where="render.")
     if "adaptive" in settings:
         V.number(settings["adaptive"], "adaptive", "render.", 0.0, lo_open=True)
+    if "light_sampling" in settings:
+        V.one_of(settings["light_sampling"], LIGHT_SAMPLING, "light_sampling", "render.")
 
     lights = []
     for i, lt in enumerate(doc.get("lights", [])):

@@ -265,6 +265,7 @@ class _Run:
         u32, cs = np.uint32, self.cs
         self.trace(gsize, lsize, n, y0, sample, self.jitter, None)
         if len(cs.lights):
-            self._launch("shadow", gsize, lsize, self.surf, self.vis, u32(n), *self.geom, *self.light)
+            self._launch("shadow", gsize, lsize, self.surf, self.vis, u32(n), u32(self.width), u32(y0), u32(sample),
+                         u32(self.spp), u32(self.seed), *self.geom, *self.light)
         return self._launch("shade", gsize, lsize, self.rays, self.surf, self.vis, u32(n), self.accum, *self.light,
                             cs.ambient, cs.background)

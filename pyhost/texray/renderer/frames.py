@@ -15,7 +15,7 @@ from .render import render, setup
 
 # render()'s keywords that render_frames passes on (sink, rows and compiled are its own business)
 OPTIONS = ("device", "seed", "jitter", "shadows", "aovs", "specialize", "local_size", "memory_limit", "tile_pixels",
-           "texture_filter", "pipeline", "adaptive", "cache")
+           "texture_filter", "pipeline", "adaptive", "cache", "light_sampling")
 
 
 def render_frames(scenes, cameras=None, width=640, height=480, spp=1, *, client=None, paths=None, progress=None,

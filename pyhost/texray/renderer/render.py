@@ -21,7 +21,7 @@ import numpy as np
 
 from ..compile import CompiledScene, cache as scene_cache
 from ..device import layout
-from ..device.features import generic_features
+from ..device.features import LIGHT_SAMPLING, generic_features
 from ..errors import SceneError
 from ..io.images import ScanlineWriter
 from ..scene import Camera, Scene
@@ -31,13 +31,13 @@ from .adaptive import BLOCK_ROWS
 from .frame import PIPELINES, RAY_BYTES, ROW_OPTIONS, device_program, launch_samples, render_rows
 from .image import Image, check_host_memory, host_image_bytes
 
-__all__ = ["RAY_BYTES", "Setup", "prepare", "render", "render_to_file", "scene_stats", "setup"]
+__all__ = ["LIGHT_SAMPLING", "RAY_BYTES", "Setup", "prepare", "render", "render_to_file", "scene_stats", "setup"]
 
 
 def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=True, shadows=True,
            aovs=(), specialize=True, local_size=None, memory_limit=None, tile_pixels=None, progress=None,
            sink=None, compiled=None, texture_filter=None, pipeline="fused", adaptive=None, cache=True, rows=None,
-           client=None, camera=None) -> Image:
+           client=None, camera=None, light_sampling="all") -> Image:
     """Render ``scene`` to a linear RGB image.
 
     spp: samples per pixel (correlated multi-jittered within the pixel, box
@@ -80,6 +80,12 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     in its block of 16 rows still samples (:mod:`texray.renderer.adaptive`);
     spp is then the most a pixel takes. ``stats["samples"]`` counts the samples
     taken. Fused pipeline only.
+    light_sampling: "all" (default) sums every light's term in every sample (one shadow
+    ray per light); "one" traces one shadow ray per sample, toward one light weighted by
+    the light count, each pixel's samples taking the lights in turn from a per-pixel offset
+    (kernels/core/sampler.h light_pick): the same mean, with more noise per sample and
+    fewer rays, as Mitsuba's direct integrator samples its emitters. It changes nothing
+    with fewer than two lights. Both pipelines, adaptive sampling too.
     cache: True (default) reads the compiled scene from the scene cache when this
     scene (not counting the camera) was compiled before, in any process, and stores
     it when its compile took long enough (:mod:`texray.compile.cache`; the README's
@@ -101,7 +107,7 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     s = setup(scene, width, height, spp, device=device, seed=seed, jitter=jitter, shadows=shadows, aovs=aovs,
               specialize=specialize, local_size=local_size, memory_limit=memory_limit, tile_pixels=tile_pixels,
               progress=progress, sink=sink, compiled=compiled, texture_filter=texture_filter, pipeline=pipeline,
-              adaptive=adaptive, cache=cache, rows=rows, camera=camera)
+              adaptive=adaptive, cache=cache, rows=rows, camera=camera, light_sampling=light_sampling)
     if dask_client is not None:
         out = distributed.render_bands(dask_client, s.cs, s.camera, s.width, s.height, s.spp, s.rows, s.options,
                                        progress, sink)
@@ -141,7 +147,7 @@ class Setup:
 def setup(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=True, shadows=True, aovs=(),
           specialize=True, local_size=None, memory_limit=None, tile_pixels=None, progress=None, sink=None,
           compiled=None, texture_filter=None, pipeline="fused", adaptive=None, cache=True, rows=None,
-          camera=None) -> Setup:
+          camera=None, light_sampling="all") -> Setup:
     """Check :func:`render`'s settings (its arguments, less ``client``) and compile the
     scene (or take it from the scene cache)."""
     width, height, spp, seed = V.render_settings(width, height, spp, seed)
@@ -151,6 +157,7 @@ def setup(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=Tr
         adaptive = V.number(adaptive, "adaptive", "render: ", 0.0, lo_open=True)
         if pipeline != "fused":
             raise SceneError("render: adaptive: adaptive sampling runs in the fused pipeline; pass pipeline='fused'")
+    V.one_of(light_sampling, LIGHT_SAMPLING, "light_sampling", "render: ")
     rows = _check_rows(rows, height, adaptive)
     band = height if rows is None else rows[1] - rows[0]
     if sink is None:
@@ -159,8 +166,9 @@ def setup(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=Tr
     if camera is not None and not isinstance(camera, Camera):
         raise SceneError(f"render: camera: expected a texray.Camera, got {V.show(camera)}")
     cs, scene_camera, cache_stats = prepare(scene, compiled, shadows, texture_filter, aovs, specialize, cache,
-                                            adaptive)
+                                            adaptive, light_sampling)
     stats = scene_stats(cs, width, height, spp, specialize, pipeline, adaptive, cache_stats)
+    stats["light_sampling"] = light_sampling
     stats["scene_compile_s"] = time.perf_counter() - t_start
     options = dict(device=device, local_size=local_size, seed=seed, jitter=jitter, aovs=aovs, adaptive=adaptive,
                    pipeline=pipeline, memory_limit=memory_limit, tile_pixels=tile_pixels)
@@ -216,9 +224,10 @@ def _check_options(aovs, pipeline, progress, sink, **flags):
     return aovs
 
 
-def prepare(scene, compiled, shadows, texture_filter, aovs, specialize, cache, adaptive=None):
+def prepare(scene, compiled, shadows, texture_filter, aovs, specialize, cache, adaptive=None, light_sampling="all"):
     """(the CompiledScene to render with the features these settings need, the camera,
-    the scene cache's stats)."""
+    the scene cache's stats). One light per sample is compiled in only where there are two
+    lights or more (with one it is the same estimator, so the same program and image)."""
     if isinstance(scene, CompiledScene) and compiled is None:
         compiled, scene = scene, None
     cache_stats = scene_cache.off_stats()
@@ -242,6 +251,8 @@ def prepare(scene, compiled, shadows, texture_filter, aovs, specialize, cache, a
             cs.objects = cs.objects_generic
     if adaptive is not None:
         cs.features = dataclasses.replace(cs.features, adaptive=True)
+    if light_sampling == "one" and len(cs.lights) >= 2:
+        cs.features = dataclasses.replace(cs.features, one_light=True)
     return cs, (scene.camera if scene is not None else cs.camera), cache_stats
 
 
