@@ -3,7 +3,7 @@
  * for PoCL devices only, texray.device.opencl). PoCL links its builtin library as code
  * built for a generic CPU, and LLVM does not inline a function whose target features
  * differ from its caller's, so every fabs, floor, fma, nextafter, copysign, sqrt, rsqrt,
- * vload3, any and all in a kernel was a call (perf on the globe scene: 10% of the frame in them).
+ * vload3, vstore3, isnan, isinf, isfinite, any and all in a kernel was a call (perf on the globe scene: 10% of the frame in them).
  * Each replacement returns the very same float as PoCL's builtin for every input
  * (IEEE-754 defines all but rsqrt exactly, and PoCL's rsqrt is 1 / sqrt), so images
  * keep their bits (tests/kernels/test_builtins.py compares them on a million inputs). PoCL's
@@ -109,6 +109,21 @@ __attribute__((overloadable)) inline int tx_all(int8 v) { return tx_all(v.lo & v
 __attribute__((overloadable)) inline int tx_all(int16 v) { return tx_all(v.lo & v.hi); }
 #undef all
 #define all tx_all
+
+/* vstore3(v, o, p): three scalar stores (a statement; o and p are evaluated more than once). */
+#undef vstore3
+#define vstore3(v, o, p) do { float3 tx_v_ = (v); (p)[3 * (o)] = tx_v_.x; (p)[3 * (o) + 1] = tx_v_.y; \
+                              (p)[3 * (o) + 2] = tx_v_.z; } while (0)
+/* isnan, isinf, isfinite of a float (1 or 0, as the scalar builtins): its exponent bits. */
+inline int tx_isnan(float x) { return (as_uint(x) & 0x7fffffffu) > 0x7f800000u; }
+inline int tx_isinf(float x) { return (as_uint(x) & 0x7fffffffu) == 0x7f800000u; }
+inline int tx_isfinite(float x) { return (as_uint(x) & 0x7fffffffu) < 0x7f800000u; }
+#undef isnan
+#define isnan tx_isnan
+#undef isinf
+#define isinf tx_isinf
+#undef isfinite
+#define isfinite tx_isfinite
 
 /* vload_half4 stays PoCL's call: an inline bitwise widening (exact on all 65536 halves)
  * measured slower than PoCL's code (tools/ab.py, textured scenes: 1.03-1.09x). */

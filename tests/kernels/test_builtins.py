@@ -38,7 +38,7 @@ __kernel void unary(__global const float* x, __global const float* y, __global f
     uint i = get_global_id(0);
     if (i >= n) return;
     float a = x[i], b = y[i];
-    __global float* o = out + 16 * i;
+    __global float* o = out + 22 * i;
     o[0] = fabs(a); o[2] = floor(a); o[4] = fma(a, b, y[(i + 1) % n]); o[6] = nextafter(a, b);
     o[8] = copysign(a, b); o[10] = sqrt(a); o[12] = rsqrt(a);
     float3 v = vload3(0, x + 3 * (i / 3));
@@ -48,6 +48,18 @@ __kernel void unary(__global const float* x, __global const float* y, __global f
     o[9] = _cl_copysign(a, b); o[11] = _cl_sqrt(a); o[13] = _cl_rsqrt(a);
     float3 w = _cl_vload3(0, x + 3 * (i / 3));
     o[15] = w.x + w.y;
+    o[16] = (float)isnan(a); o[17] = (float)_cl_isnan(a); o[18] = (float)isinf(a); o[19] = (float)_cl_isinf(a);
+    o[20] = (float)isfinite(a); o[21] = (float)_cl_isfinite(a);
+}
+
+/* vstore3 against PoCL's: the triple x[3i..] stored at out[3i..] and out2[3i..]. */
+__kernel void store3(__global const float* x, __global float* out, __global float* out2, uint n)
+{
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    float3 v = (float3)(x[3 * i], x[3 * i + 1], x[3 * i + 2]);
+    vstore3(v, i, out);
+    _cl_vstore3(v, i, out2);
 }
 
 /* The float8 and float16 versions (the packets' vectors), lane by lane against PoCL's scalar
@@ -103,14 +115,32 @@ def test_pocl_inline_builtins_keep_the_bits(rt, rng):
     if "-DTX_POCL=1" not in rt.device_defines:
         pytest.skip("core/builtins.h replaces builtins on PoCL only")
     x, y = _pairs(rng, 1 << 20)
-    out = _run(rt, "unary", x, y, 16, _POCL_KERNELS)
-    names = ["fabs", "floor", "fma", "nextafter", "copysign", "sqrt", "rsqrt", "vload3"]
+    out = _run(rt, "unary", x, y, 22, _POCL_KERNELS)
+    names = ["fabs", "floor", "fma", "nextafter", "copysign", "sqrt", "rsqrt", "vload3", "isnan", "isinf", "isfinite"]
+    assert out[:, 16].sum() > 0 and out[:, 18].sum() > 0 and 0 < out[:, 20].sum() < len(x)   # each answer seen
     for j, name in enumerate(names):
         mine, theirs = out[:, 2 * j].view(np.uint32), out[:, 2 * j + 1].view(np.uint32)
         both_nan = np.isnan(out[:, 2 * j]) & np.isnan(out[:, 2 * j + 1])
         bad = (mine != theirs) & ~both_nan
         assert not bad.any(), (f"{name}: {bad.sum()} inputs differ, e.g. x={x[bad][:3]} y={y[bad][:3]}: "
                                f"{out[bad, 2 * j][:3]} vs builtin {out[bad, 2 * j + 1][:3]}")
+
+
+def test_pocl_vstore3_stores_as_the_builtin(rt, rng):
+    if "-DTX_POCL=1" not in rt.device_defines:
+        pytest.skip("core/builtins.h replaces builtins on PoCL only")
+    n = 4099
+    x = rng.integers(0, 2**32, 3 * n, dtype=np.uint64).astype(np.uint32).view(np.float32)
+    k = build_test_program(rt, (), _POCL_KERNELS)
+    mf = cl.mem_flags
+    bx = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
+    outs = [np.full(3 * n, 7.0, np.float32) for _ in range(2)]
+    bufs = [cl.Buffer(rt.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=o) for o in outs]
+    k.store3(rt.queue, (n,), None, bx, *bufs, np.uint32(n))
+    for o, b in zip(outs, bufs):
+        cl.enqueue_copy(rt.queue, o, b)
+    np.testing.assert_array_equal(outs[0].view(np.uint32), x.view(np.uint32))
+    np.testing.assert_array_equal(outs[1].view(np.uint32), x.view(np.uint32))
 
 
 def test_pocl_vector_builtins_keep_the_bits(rt, rng):
