@@ -57,4 +57,49 @@ static inline __attribute__((always_inline)) void pf3_two_diff(pfloat3 a, pfloat
     *hi = s;
 }
 
+/* core/accurate.h's tx_unit_or, lane by lane: v / |v| (v first divided by its largest
+ * component), `fallback` where v is zero or not finite. */
+static inline __attribute__((always_inline)) pfloat3 pf3_unit_or(pfloat3 v, pfloat3 fallback)
+{
+    pfloat m = PMAX(PMAX(fabs(v.x), fabs(v.y)), fabs(v.z));
+    pfloat3 u = pf3(v.x / m, v.y / m, v.z / m);
+    return pf3_sel((m > 0.0f) & (m <= FLT_MAX), pf3_scale(rsqrt(pf3_dot(u, u)), u), fallback);
+}
+
+/* Lane j's Geom from the vectors of a packet geometry (geometry/sphere_packet.h,
+ * quad_packet.h), for the lanes of m; the others' left as they were. */
+inline void geom_store_packet(pint m, pfloat3 p, pfloat3 ng, pfloat3 dpdu, pfloat3 dpdv, pfloat u, pfloat v,
+                              pfloat3 perr, Geom* g)
+{
+    int ml[TX_PACKET];
+    float o[17][TX_PACKET];
+    PSTORE(m, ml);
+    PSTORE(p.x, o[0]); PSTORE(p.y, o[1]); PSTORE(p.z, o[2]);
+    PSTORE(ng.x, o[3]); PSTORE(ng.y, o[4]); PSTORE(ng.z, o[5]);
+    PSTORE(dpdu.x, o[6]); PSTORE(dpdu.y, o[7]); PSTORE(dpdu.z, o[8]);
+    PSTORE(dpdv.x, o[9]); PSTORE(dpdv.y, o[10]); PSTORE(dpdv.z, o[11]);
+    PSTORE(u, o[12]); PSTORE(v, o[13]);
+    PSTORE(perr.x, o[14]); PSTORE(perr.y, o[15]); PSTORE(perr.z, o[16]);
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        if (!ml[j]) continue;
+        g[j].p = (float3)(o[0][j], o[1][j], o[2][j]);
+        g[j].ng = (float3)(o[3][j], o[4][j], o[5][j]);
+        g[j].dpdu = (float3)(o[6][j], o[7][j], o[8][j]);
+        g[j].dpdv = (float3)(o[9][j], o[10][j], o[11][j]);
+        g[j].uv = (float2)(o[12][j], o[13][j]);
+        g[j].perr = (float3)(o[14][j], o[15][j], o[16][j]);
+    }
+}
+
+/* The lane a gather reads for lanes outside m: the first lane of m (any lane when m is empty). */
+inline uint packet_first_lane(pint m)
+{
+    int ml[TX_PACKET];
+    PSTORE(m, ml);
+    uint k0 = 0u;
+    for (uint j = TX_PACKET; j-- > 0u;)
+        if (ml[j]) k0 = j;
+    return k0;
+}
+
 #endif

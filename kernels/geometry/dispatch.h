@@ -126,9 +126,10 @@ typedef struct { uint material, object, prim; } PrimIds;
 /* `static`: called once, so inlined into surface_eval (shading/surface.h explains).
  * Surface geometry of the hit h of the ray (org, dir) into *g, by kind (each kind's
  * *_geom: the point, its error bound, the geometric normal, uv and dP/du, dP/dv with
- * respect to uv); returns the hit's ids. h->prim must not be TX_MISS. pre: a sphere hit's
- * Geom when the caller has it already (the fused kernel's packets: geometry/sphere_packet.h
- * sphere_geom_packet, the same bits), else NULL. */
+ * respect to uv); returns the hit's ids. h->prim must not be TX_MISS. pre: a sphere or quad
+ * hit's Geom when the caller has it already (the fused kernel's packets: geometry/
+ * sphere_packet.h sphere_geom_packet, quad_packet.h quad_geom_packet, the same bits), else
+ * NULL. */
 static inline PrimIds hit_geom(TX_GEOM_PARAMS, __global const TriShade* tri_shade, __global const QuadShade* quad_shade,
                         __global const float* uvs, float3 org, float3 dir, const HitRec* h, const Geom* pre, Geom* g)
 {
@@ -159,7 +160,10 @@ static inline PrimIds hit_geom(TX_GEOM_PARAMS, __global const TriShade* tri_shad
 #if TX_QUADS
     else if (kind == PRIM_QUAD) {
         __global const QuadShade* qs = quad_shade + idx;
-        quad_geom(quads + idx, qs, (float2)(h->b1, h->b2), g);
+        if (pre)
+            *g = *pre;
+        else
+            quad_geom(quads + idx, qs, (float2)(h->b1, h->b2), g);
         ids.material = qs->material; ids.object = qs->object; ids.prim = qs->prim;
     }
 #endif

@@ -2,7 +2,7 @@
 /* geometry/quad.h's quad_intersect_corners for every lane of a ray packet (accel/packet.h):
  * one patch against TX_PACKET rays as floatN arithmetic, for the packet traversals' quad
  * leaves (the bilinear patch test took a quarter of a bump-mapped brick wall's frame, lane
- * by lane).
+ * by lane); and its quad_geom for a packet's quad hits (quad_geom_packet).
  *
  * The same formulas in the same order as the scalar code, with its roundings (FP
  * contraction off as there; accel/packet_vec.h's helpers round as the scalar ones do). The per-lane choices of
@@ -77,6 +77,62 @@ inline pint quad_intersect_packet(const PacketRay* r, float3 c0, float3 c1, floa
     *u = PSEL_F(swap, bv, bu);
     *v = PSEL_F(swap, bu, bv);
     return hit;
+}
+
+/* quad_geom(quads + idx[j], quad_shade + idx[j], (u_j, v_j), g + j) for the lanes j of m
+ * (each lane's own quad, gathered), with quad_texcoords and reparam_tangents, as floatN
+ * arithmetic: each lane's Geom quad_geom's bit for bit (tests/kernels/test_packet.py); the
+ * other lanes' g are left as they were. */
+inline void quad_geom_packet(__global const QuadVerts* quads, __global const QuadShade* quad_shade, const uint* idx,
+                             pint m, pfloat u, pfloat v, Geom* g)
+{
+    int ml[TX_PACKET];
+    PSTORE(m, ml);
+    uint k0 = packet_first_lane(m);                 /* the other lanes read its quad */
+    float lp[12][TX_PACKET], lt[8][TX_PACKET];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        uint i = idx[ml[j] ? j : k0];
+        __global const QuadVerts* qv = quads + i;
+        float3 c[4] = { quad_p0(qv), quad_p1(qv), quad_p2(qv), quad_p3(qv) };
+        for (int k = 0; k < 4; ++k) { lp[3 * k][j] = c[k].x; lp[3 * k + 1][j] = c[k].y; lp[3 * k + 2][j] = c[k].z; }
+        for (int k = 0; k < 8; ++k) lt[k][j] = quad_shade[i].uv[k];
+    }
+#define TX_QG_P(k) pf3((pfloat)(TX_LANES(lp[3 * (k)])), (pfloat)(TX_LANES(lp[3 * (k) + 1])), \
+                       (pfloat)(TX_LANES(lp[3 * (k) + 2])))
+    pfloat3 p0 = TX_QG_P(0), p1 = TX_QG_P(1), p2 = TX_QG_P(2), p3 = TX_QG_P(3);
+#undef TX_QG_P
+    pfloat omv = 1.0f - v, omu = 1.0f - u;
+    pfloat3 pu = pf3_add(pf3_scale(omv, pf3_sub(p1, p0)), pf3_scale(v, pf3_sub(p2, p3)));
+    pfloat3 pv = pf3_add(pf3_scale(omu, pf3_sub(p3, p0)), pf3_scale(u, pf3_sub(p2, p1)));
+    pfloat3 a = pf3_add(p0, pf3_scale(u, pf3_sub(p1, p0))), b = pf3_add(p3, pf3_scale(u, pf3_sub(p2, p3)));
+    pfloat3 p = pf3_add(a, pf3_scale(v, pf3_sub(b, a)));
+    pfloat3 pm = pf3_max(pf3_max(pf3_abs(p0), pf3_abs(p1)), pf3_max(pf3_abs(p2), pf3_abs(p3)));
+    pfloat e = gamma_n(6.0f) * PMAX(PMAX(pm.x, pm.y), pm.z);
+    pfloat3 zero = pf3_splat((float3)(0.0f));
+    pfloat3 n = pf3_cross(pf3_unit_or(pu, zero), pf3_unit_or(pv, zero));
+    pfloat3 nm = pf3_cross(pf3_sub(p2, p0), pf3_sub(p3, p1));           /* the fallbacks (quad_geom) */
+    pfloat3 n1 = pf3_cross(pf3_sub(p1, p0), pf3_sub(p2, p0)), n2 = pf3_cross(pf3_sub(p2, p0), pf3_sub(p3, p0));
+    pfloat3 nt = pf3_sel(pf3_dot(n1, n1) >= pf3_dot(n2, n2), n1, n2);
+    nm = pf3_sel(PMAX(PMAX(fabs(nm.x), fabs(nm.y)), fabs(nm.z)) > 0.0f, nm, nt);
+    n = pf3_sel(pf3_dot(n, n) > 9.094947e-13f, n, nm);
+    pfloat3 ng = pf3_unit_or(n, pf3_splat((float3)(0.0f, 0.0f, 1.0f)));
+    /* quad_texcoords */
+    pfloat t0x = (pfloat)(TX_LANES(lt[0])), t0y = (pfloat)(TX_LANES(lt[1])), t1x = (pfloat)(TX_LANES(lt[2]));
+    pfloat t1y = (pfloat)(TX_LANES(lt[3])), t2x = (pfloat)(TX_LANES(lt[4])), t2y = (pfloat)(TX_LANES(lt[5]));
+    pfloat t3x = (pfloat)(TX_LANES(lt[6])), t3y = (pfloat)(TX_LANES(lt[7]));
+    pfloat tax = t0x + u * (t1x - t0x), tay = t0y + u * (t1y - t0y);
+    pfloat tbx = t3x + u * (t2x - t3x), tby = t3y + u * (t2y - t3y);
+    pfloat gu = tax + v * (tbx - tax), gv = tay + v * (tby - tay);
+    pfloat tux = omv * (t1x - t0x) + v * (t2x - t3x), tuy = omv * (t1y - t0y) + v * (t2y - t3y);
+    pfloat tvx = omu * (t3x - t0x) + u * (t2x - t1x), tvy = omu * (t3y - t0y) + u * (t2y - t1y);
+    /* reparam_tangents(tu, tv, pu, pv): mul_inverse2 where the Jacobian is not singular */
+    pfloat det = tux * tvy - tvx * tuy;
+    pfloat size = fabs(tux * tvy) + fabs(tvx * tuy);
+    pint ok = (fabs(det) > 1.5258789e-05f * size) & (size <= FLT_MAX);
+    pfloat inv = 1.0f / det;
+    pfloat3 ds = pf3_scale(inv, pf3_sub(pf3_scale(tvy, pu), pf3_scale(tuy, pv)));
+    pfloat3 dt = pf3_scale(inv, pf3_sub(pf3_scale(tux, pv), pf3_scale(tvx, pu)));
+    geom_store_packet(m, p, ng, pf3_sel(ok, ds, pu), pf3_sel(ok, dt, pv), gu, gv, pf3(e, e, e), g);
 }
 
 #endif

@@ -126,9 +126,7 @@ inline void sphere_geom_packet(__global const Sphere* spheres, const uint* idx, 
 {
     int ml[TX_PACKET];
     PSTORE(m, ml);
-    uint k0 = 0u;                                   /* a lane of m: the others read its sphere */
-    for (uint j = TX_PACKET; j-- > 0u;)
-        if (ml[j]) k0 = j;
+    uint k0 = packet_first_lane(m);                 /* the other lanes read its sphere */
     float lc[4][TX_PACKET], lx[3][TX_PACKET], lz[3][TX_PACKET];
     for (uint j = 0; j < (uint)TX_PACKET; ++j) {
         __global const Sphere* sp = spheres + idx[ml[j] ? j : k0];
@@ -164,9 +162,7 @@ inline void sphere_geom_packet(__global const Sphere* spheres, const uint* idx, 
     pfloat half_chord = sqrt(PMAX(disc, (pfloat)(0.0f)) * inv_a);
     pfloat3 v = pf3_scale(inv_a, pf3_cross(dir, w));
     pfloat3 pc = pf3_add(v, pf3_scale(PSEL_F(near, -half_chord, half_chord), dir));
-    pfloat mx = PMAX(PMAX(fabs(pc.x), fabs(pc.y)), fabs(pc.z));      /* tx_unit_or(pc, axis_z) */
-    pfloat3 u = pf3(pc.x / mx, pc.y / mx, pc.z / mx);
-    pfloat3 n = pf3_sel((mx > 0.0f) & (mx <= FLT_MAX), pf3_scale(rsqrt(pf3_dot(u, u)), u), AZ);
+    pfloat3 n = pf3_unit_or(pc, AZ);
     pc = pf3_scale(r, n);
     pfloat3 p = pf3_add(c, pc);
     pfloat3 perr = pf3_add(pf3_scale((pfloat)(gamma_n(7.0f)), pf3_abs(pc)), pf3_scale((pfloat)(gamma_n(1.0f)), pf3_abs(p)));
@@ -181,22 +177,7 @@ inline void sphere_geom_packet(__global const Sphere* spheres, const uint* idx, 
     pfloat3 dp_dtheta = pf3_sub(pf3_scale(z, pf3_add(pf3_scale(cos_phi, AX), pf3_scale(sin_phi, AY))),
                                 pf3_scale(rho, AZ));
     pfloat3 dpdu = pf3_scale((pfloat)(2.0f * M_PI_F), dp_dphi), dpdv = pf3_scale((pfloat)(-M_PI_F), dp_dtheta);
-    float o[17][TX_PACKET];
-    PSTORE(p.x, o[0]); PSTORE(p.y, o[1]); PSTORE(p.z, o[2]);
-    PSTORE(n.x, o[3]); PSTORE(n.y, o[4]); PSTORE(n.z, o[5]);
-    PSTORE(dpdu.x, o[6]); PSTORE(dpdu.y, o[7]); PSTORE(dpdu.z, o[8]);
-    PSTORE(dpdv.x, o[9]); PSTORE(dpdv.y, o[10]); PSTORE(dpdv.z, o[11]);
-    PSTORE(gu, o[12]); PSTORE(gv, o[13]);
-    PSTORE(perr.x, o[14]); PSTORE(perr.y, o[15]); PSTORE(perr.z, o[16]);
-    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
-        if (!ml[j]) continue;
-        g[j].p = (float3)(o[0][j], o[1][j], o[2][j]);
-        g[j].ng = (float3)(o[3][j], o[4][j], o[5][j]);
-        g[j].dpdu = (float3)(o[6][j], o[7][j], o[8][j]);
-        g[j].dpdv = (float3)(o[9][j], o[10][j], o[11][j]);
-        g[j].uv = (float2)(o[12][j], o[13][j]);
-        g[j].perr = (float3)(o[14][j], o[15][j], o[16][j]);
-    }
+    geom_store_packet(m, p, n, dpdu, dpdv, gu, gv, perr, g);
 }
 
 #endif

@@ -253,7 +253,7 @@ static inline void surface_write(const SurfaceGeom* sg, float3 ng, float3 ns, co
 
 /* Evaluates the hit h of the ray (org, dir) into *s (s->valid = 0 for a miss); with
  * TX_AOVS and aov != NULL also writes record gid of the AOV buffer. pre: the hit's Geom
- * where the caller computed it (a sphere's, hit_geom), else NULL. Out of line on
+ * where the caller computed it (a sphere's or a quad's, hit_geom), else NULL. Out of line on
  * Intel's CPU compiler, taking float4 (core/common.h, TX_OUT_OF_LINE); surface_eval
  * below is the float3 entry every caller uses. */
 TX_OUT_OF_LINE void surface_eval_v(float4 org4, float4 dir4, HitRec hit, const Geom* pre, TX_GEOM_PARAMS,

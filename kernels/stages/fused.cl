@@ -112,17 +112,28 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
         float ht[TX_CHUNK], hb1[TX_CHUNK], hb2[TX_CHUNK];
         int hp[TX_CHUNK];
         PSTORE(ph.t, ht); PSTORE(ph.b1, hb1); PSTORE(ph.b2, hb2); PSTORE(ph.prim, hp);
-#if TX_SPHERES
-        /* the sphere hits' geometry as one vector computation (geometry/sphere_packet.h) */
+#if TX_SPHERES || TX_QUADS
+        /* the sphere and quad hits' geometry as one vector computation per kind
+         * (geometry/sphere_packet.h, quad_packet.h: the scalar geometry's bits) */
         Geom pre[TX_CHUNK];
-        uint sidx[TX_CHUNK];
-        for (uint j = 0; j < (uint)TX_CHUNK; ++j) sidx[j] = (uint)hp[j] & HIT_INDEX_MASK;
-        pint on_sphere = (pint)(TX_LANES(act)) & ((as_puint(ph.prim) >> HIT_KIND_SHIFT) == (uint)PRIM_SPHERE);
-        int sph[TX_CHUNK];
-        PSTORE(on_sphere, sph);
+        uint pidx[TX_CHUNK];
+        int has_pre[TX_CHUNK];
+        for (uint j = 0; j < (uint)TX_CHUNK; ++j) pidx[j] = (uint)hp[j] & HIT_INDEX_MASK;
+        pint hit_kind = as_pint(as_puint(ph.prim) >> HIT_KIND_SHIFT), pre_lanes = (pint)(0);
+#if TX_SPHERES
+        pint on_sphere = (pint)(TX_LANES(act)) & (hit_kind == (int)PRIM_SPHERE);
         if (any(on_sphere))
-            sphere_geom_packet(spheres, sidx, on_sphere, pf3(pr.ox, pr.oy, pr.oz), pf3(pr.dx, pr.dy, pr.dz), ph.t, pre);
-#define TX_PRE_GEOM(j) (sph[j] ? pre + (j) : (const Geom*)0)
+            sphere_geom_packet(spheres, pidx, on_sphere, pf3(pr.ox, pr.oy, pr.oz), pf3(pr.dx, pr.dy, pr.dz), ph.t, pre);
+        pre_lanes |= on_sphere;
+#endif
+#if TX_QUADS
+        pint on_quad = (pint)(TX_LANES(act)) & (hit_kind == (int)PRIM_QUAD);
+        if (any(on_quad))
+            quad_geom_packet(quads, quad_shade, pidx, on_quad, ph.b1, ph.b2, pre);
+        pre_lanes |= on_quad;
+#endif
+        PSTORE(pre_lanes, has_pre);
+#define TX_PRE_GEOM(j) (has_pre[j] ? pre + (j) : (const Geom*)0)
 #else
 #define TX_PRE_GEOM(j) ((const Geom*)0)
 #endif

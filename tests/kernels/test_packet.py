@@ -454,3 +454,101 @@ def test_packet_sphere_geometry_equals_sphere_geom(rt, rng, width):
     # the poles and the seam were reached: u = 0 at the seam, v in {0, 1} at a pole
     uv = out_s[h][:, 12:14]
     assert (uv[:, 0] == 0).any() and ((uv[:, 1] < 1e-3) | (uv[:, 1] > 1 - 1e-3)).any()
+
+
+_QUAD_GEOM_KERNEL = r"""
+#include "core/common.h"
+#include "core/accurate.h"
+#include "geometry/quad.h"
+#include "accel/packet.h"
+
+/* Work-item i: lanes k = TX_PACKET i .. with quad qidx[k] at the parameters (u, v)[k]:
+ * quad_geom lane by lane (out_s) and quad_geom_packet (out_p), 17 floats each. */
+__kernel void quad_geoms(__global const QuadVerts* quads, __global const QuadShade* qs, __global const uint* qidx,
+                         __global const float* params, __global float* out_s, __global float* out_p, uint n)
+{
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    uint idx[TX_PACKET];
+    float pu[TX_PACKET], pv[TX_PACKET];
+    Geom gs[TX_PACKET], gp[TX_PACKET];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        uint k = TX_PACKET * i + j;
+        idx[j] = qidx[k];
+        pu[j] = params[2 * k]; pv[j] = params[2 * k + 1];
+        quad_geom(quads + idx[j], qs + idx[j], (float2)(pu[j], pv[j]), gs + j);
+    }
+    quad_geom_packet(quads, qs, idx, (pint)(-1), (pfloat)(TX_LANES(pu)), (pfloat)(TX_LANES(pv)), gp);
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        uint k = TX_PACKET * i + j;
+        const Geom* g2[2] = { gs + j, gp + j };
+        __global float* outs[2] = { out_s + 17 * k, out_p + 17 * k };
+        for (int v = 0; v < 2; ++v) {
+            const Geom* g = g2[v];
+            __global float* o = outs[v];
+            vstore3(g->p, 0, o); vstore3(g->ng, 0, o + 3); vstore3(g->dpdu, 0, o + 6); vstore3(g->dpdv, 0, o + 9);
+            vstore2(g->uv, 0, o + 12); vstore3(g->perr, 0, o + 14);
+        }
+    }
+}
+"""
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_packet_quad_geometry_equals_quad_geom(rt, rng, width):
+    """quad_geom_packet (geometry/quad_packet.h: the fused kernel's quad hits) gives quad_geom's
+    point, normal, tangents, uv and error bound bit for bit, each lane on its own quad:
+    parallelogram, trapezoid, saddle, bow-tie, three collinear corners and four (the normal's
+    fallbacks), a rotated and mirrored uv map and a singular one (the tangents' fallback), a
+    quad 1e5 from the origin and one 1e-3 across; at random parameters, the corners and edges."""
+    import pyopencl as cl
+    from kernel_harness import build_test_program
+    from texray.device import layout
+    from texray.device.features import compile_options
+    corners = [
+        [(0, 0, 0), (2, 0, 0), (2, 1, 0), (0, 1, 0)],                       # rectangle
+        [(0, 0, 0), (3, 0, 0), (2, 1, 0.2), (1, 1, 0.2)],                   # trapezoid
+        [(0, 0, 0), (1, 0, 2), (1, 1, 0), (0, 1, 2)],                       # saddle (z the largest)
+        [(0, 0, 0), (1, 1, 0), (1, 0, 0), (0, 1, 0)],                       # bow-tie
+        [(0, 0, 0), (1, 0, 0), (2, 0, 0), (0, 1, 0)],                       # three collinear
+        [(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0)],                       # all collinear: +z
+        [(1e5, 1e5, 1e5), (1e5 + 1, 1e5, 1e5), (1e5 + 1, 1e5 + 1, 1e5 + 0.5), (1e5, 1e5 + 1, 1e5)],
+        [(0, 0, 0), (1e-3, 0, 0), (1e-3, 1e-3, 1e-4), (0, 1e-3, 0)],
+        [(0, 0, 0), (0, 1, 0), (2, 0, 0), (1, 1, 0)],                       # a Z: no normal at v = 1/2
+    ]
+    uvs = [(0, 0, 1, 0, 1, 1, 0, 1), (1, 0, 0, 0, 0, 2, 1, 2), (0.2, 0.1, 0.9, 0.3, 0.7, 1.1, 0.1, 0.8),
+           (0, 0, 1, 0, 2, 0, 3, 0),                                          # singular
+           (0, 0, 1, 1, 2, 2.00001, 1, 1.00001)]                              # |det| / size 5e-6: below 2^-16
+    quads = np.zeros(len(corners) * len(uvs), layout.QUAD_VERTS)
+    shade = np.zeros(len(quads), layout.QUAD_SHADE)
+    for i, (c, t) in enumerate((c, t) for c in corners for t in uvs):
+        quads[i]["p0"], quads[i]["p1"], quads[i]["p2"], quads[i]["p3"] = c
+        shade[i]["uv"] = t
+    n = 4096
+    qid = rng.integers(0, len(quads), n).astype(np.uint32)
+    params = rng.random((n, 2)).astype(np.float32)
+    params[::5] = rng.integers(0, 2, (len(params[::5]), 2))                      # corners
+    params[1::5, 0] = rng.integers(0, 2, len(params[1::5]))                      # edges
+    params[2::5, 1] = 0.5                                                        # the Z's fold
+    params[3::5] = np.stack([np.ones(len(params[3::5])), 10.0 ** rng.uniform(-9, -5, len(params[3::5]))], 1)
+    # (next to the corner p1, where the three-collinear quad's tangents are nearly parallel)
+    opts = {**compile_options(Features(quads=True, triangles=False)), "TX_PACKET": width}
+    k = build_test_program(rt, (), _QUAD_GEOM_KERNEL, [f"-D{a}={b}" for a, b in opts.items()])
+    mf = cl.mem_flags
+    ins = [cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a))
+           for a in (quads, shade, qid, params)]
+    out_s, out_p = np.zeros((n, 17), np.float32), np.zeros((n, 17), np.float32)
+    bufs = [cl.Buffer(rt.context, mf.WRITE_ONLY, a.nbytes) for a in (out_s, out_p)]
+    k.quad_geoms(rt.queue, (n // width,), None, *ins, *bufs, np.uint32(n // width))
+    for a, b in zip((out_s, out_p), bufs):
+        cl.enqueue_copy(rt.queue, a, b)
+    assert np.isfinite(out_s).all()
+    same = out_s.view(np.uint32) == out_p.view(np.uint32)
+    bad = np.flatnonzero(~same.all(axis=1))
+    assert bad.size == 0, f"{bad.size} lanes differ, e.g. quad {qid[bad[0]]} at {params[bad[0]]}, fields " \
+                          f"{np.flatnonzero(~same[bad[0]])}: {out_s[bad[0]]} against {out_p[bad[0]]}"
+    # the fallbacks were taken: +z for the collinear quad, tangents = dP/du, dP/dv for the singular uv map
+    k_uv = len(uvs)
+    assert (out_s[qid // k_uv == 5, 3:6] == (0, 0, 1)).all()
+    z = (qid // k_uv == 8) & (params[:, 1] == 0.5)
+    assert z.any() and (np.abs(out_s[z, 5]) == 1).all()          # the Z's fold: a diagonal or triangle normal
