@@ -7,6 +7,7 @@ from texray.device import layout
 from texray.scene import heightfield as HF
 
 CORNERS = ((-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1))     # u along +x, v along -z, n = +y
+TRAPEZOID = ((-1.2, 0, 1), (1.2, 0, 1), (0.6, 0, -1), (-0.5, 0, -1.1))     # planar, convex, no two sides parallel
 
 
 def quad_reference(d, org, dirs, samples=4000):
@@ -49,6 +50,85 @@ def quad_reference(d, org, dirs, samples=4000):
     th = 0.5 * (lo_t + hi_t)
     uv = (lo + th[:, None] * ld)[:, :2]
     return np.where(ok, th, np.nan), uv
+
+
+def inverse_bilinear(q, p):
+    """float64 (u, v) of the points q (..., 3) on the planar quad p (4, 3) by its bilinear
+    patch p0 + u e0 + v e1 + u v g, solved independently of the kernel: Newton on the two
+    in-plane equations from the parallelogram's affine guess (NaN where it does not converge)."""
+    e0, e1, g = p[1] - p[0], p[3] - p[0], p[0] - p[1] + p[2] - p[3]
+    n = np.cross(e0, e1)
+    n /= np.linalg.norm(n)
+    a1 = e0 / np.linalg.norm(e0)
+    a2 = np.cross(n, a1)
+    basis = np.stack([a1, a2])                     # in-plane coordinates
+    r = (q - p[0]) @ basis.T
+    E0, E1, G = e0 @ basis.T, e1 @ basis.T, g @ basis.T
+    uv = r @ np.linalg.inv(np.stack([E0, E1]))      # the affine guess
+    for _ in range(30):
+        u, v = uv[..., :1], uv[..., 1:]
+        res = u * E0 + v * E1 + u * v * G - r
+        ju, jv = E0 + v * G, E1 + u * G
+        det = ju[..., 0] * jv[..., 1] - ju[..., 1] * jv[..., 0]
+        du = (res[..., 0] * jv[..., 1] - res[..., 1] * jv[..., 0]) / det
+        dv = (ju[..., 0] * res[..., 1] - ju[..., 1] * res[..., 0]) / det
+        uv = uv - np.stack([du, dv], -1)
+    u, v = uv[..., 0], uv[..., 1]
+    res = u[..., None] * E0 + v[..., None] * E1 + (u * v)[..., None] * G - r
+    return np.where((np.abs(res) < 1e-9).all(-1)[..., None], uv, np.nan)
+
+
+def trapezoid_reference(d, corners, org, dirs, samples=4000):
+    """float64 (t, uv) of the first crossing of each ray with the displaced planar convex quad
+    ``corners`` (f = h - H(u, v), +inf outside the (u, v) domain), as quad_reference: samples
+    over the ray's part (t >= 0) in the slab [min H, max H] along the normal over the quad
+    (within the half-spaces of its four edges, widened by 1e-9). Rays parallel to the plane
+    or to an edge's plane are not handled."""
+    p = np.asarray(corners, np.float64)
+    n = np.cross(p[1] - p[0], p[3] - p[0])
+    n /= np.linalg.norm(n)
+    h = d.heights()
+    org = np.broadcast_to(np.asarray(org, np.float64), np.shape(dirs))
+    dirs = np.asarray(dirs, np.float64)
+    ho, hd = (org - p[0]) @ n, dirs @ n
+    t0, t1 = (h.min() - 1e-9 - ho) / hd, (h.max() + 1e-9 - ho) / hd
+    tn, tf = np.maximum(np.minimum(t0, t1), 0), np.maximum(t0, t1)
+    for i in range(4):                                   # (q - p_i) . (n x edge) >= 0: inside
+        m = np.cross(n, p[(i + 1) % 4] - p[i])
+        m /= np.linalg.norm(m)
+        a, b = (org - p[i]) @ m + 1e-9, dirs @ m
+        te = -a / b
+        tn, tf = np.where(b > 0, np.maximum(tn, te), tn), np.where(b < 0, np.minimum(tf, te), tf)
+    tf = np.maximum(tf, tn)                              # an empty part: no samples over the quad, a miss
+
+    def f(t):
+        q = org[:, None] + t[..., None] * dirs[:, None]
+        uv = inverse_bilinear(q, p)
+        u, v = uv[..., 0], uv[..., 1]
+        inside = (u >= -1e-12) & (u <= 1 + 1e-12) & (v >= -1e-12) & (v <= 1 + 1e-12)
+        hq = (q - p[0]) @ n
+        with np.errstate(invalid="ignore"):
+            return np.where(inside, hq - HF.height(h, np.clip(np.nan_to_num(u), 0, 1),
+                                                    np.clip(np.nan_to_num(v), 0, 1), d.wrap), np.inf), uv
+
+    t = tn[:, None] + np.linspace(0, 1, samples)[None] * (tf - tn)[:, None]
+    fv, _ = f(t)
+    below = fv < 0
+    first = np.argmax(np.isfinite(fv), axis=1)          # the first sample over the quad sets the side
+    rows = np.arange(len(t))
+    start = below[rows, first]
+    change = (below != start[:, None]) & np.isfinite(fv) & (np.arange(samples)[None] > first[:, None])
+    ok = change.any(axis=1)
+    i = np.argmax(change, axis=1)
+    lo_t, hi_t = t[rows, np.maximum(i - 1, 0)], t[rows, i]
+    for _ in range(50):
+        mid = 0.5 * (lo_t + hi_t)
+        fm, _ = f(mid[:, None])
+        same = (fm[:, 0] < 0) == start
+        lo_t, hi_t = np.where(same, mid, lo_t), np.where(same, hi_t, mid)
+    th = 0.5 * (lo_t + hi_t)
+    _, uv = f(th[:, None])
+    return np.where(ok, th, np.nan), uv[:, 0]
 
 
 def trace_each(tracer, orgs, dirs):
