@@ -83,7 +83,7 @@ def trapezoid_reference(d, corners, org, dirs, samples=4000):
     ``corners`` (f = h - H(u, v), +inf outside the (u, v) domain), as quad_reference: samples
     over the ray's part (t >= 0) in the slab [min H, max H] along the normal over the quad
     (within the half-spaces of its four edges, widened by 1e-9). Rays parallel to the plane
-    or to an edge's plane are not handled."""
+    are not handled."""
     p = np.asarray(corners, np.float64)
     n = np.cross(p[1] - p[0], p[3] - p[0])
     n /= np.linalg.norm(n)
@@ -97,8 +97,10 @@ def trapezoid_reference(d, corners, org, dirs, samples=4000):
         m = np.cross(n, p[(i + 1) % 4] - p[i])
         m /= np.linalg.norm(m)
         a, b = (org - p[i]) @ m + 1e-9, dirs @ m
-        te = -a / b
+        with np.errstate(divide="ignore", invalid="ignore"):
+            te = -a / b
         tn, tf = np.where(b > 0, np.maximum(tn, te), tn), np.where(b < 0, np.minimum(tf, te), tf)
+        tf = np.where((b == 0) & (a < 0), -np.inf, tf)   # parallel to the edge, outside it
     tf = np.maximum(tf, tn)                              # an empty part: no samples over the quad, a miss
 
     def f(t):
