@@ -328,14 +328,20 @@ def test_maxmip_constant_maps_are_planes_at_their_height(device, heights):
 
 
 def test_maxmip_degenerate_rays_miss(device):
-    """NaN and infinite origins and directions, and the zero direction, toward the displaced
-    trapezoid: misses for closest-hit and any-hit rays, no NaN."""
+    """NaN and infinite origins and directions, and the zero direction (from outside, and from
+    inside the shell above and below the surface, where the clip leaves it the whole (0, inf)
+    range), toward the displaced trapezoid: misses for closest-hit and any-hit rays."""
     d = tx.Displacement(_sines(), scale=SCALE, method="maxmip")
-    tracer = _tracer(_quad("trapezoid", d), device=device)
+    quad = _quad("trapezoid", d)
+    tracer = _tracer(quad, device=device)
     good_o, good_d = np.array([0.1, 1.0, 0.2]), np.array([0.05, -1.0, 0.1])
     nan, inf = np.nan, np.inf
-    orgs = np.array([good_o, [nan, 1, 0], good_o, good_o, [inf, 1, 0], good_o, good_o, [0.1, 0.1, 0.2]])
-    dirs = np.array([good_d, good_d, [nan, -1, 0], [0, 0, 0], good_d, [0, -inf, 0], [nan, nan, nan], [0, 0, 0]])
+    orgs = np.array([good_o, [nan, 1, 0], good_o, good_o, [inf, 1, 0], good_o, good_o])
+    dirs = np.array([good_d, good_d, [nan, -1, 0], [0, 0, 0], good_d, [0, -inf, 0], [nan, nan, nan]])
+    rng = np.random.default_rng(2)
+    p, n, _ = _frame(quad, rng.uniform(0.1, 0.9, 16), rng.uniform(0.1, 0.9, 16))
+    inside = p + np.repeat([0.02, 0.18], 8)[:, None] * n             # below and above the surface
+    orgs, dirs = np.concatenate([orgs, inside]), np.concatenate([dirs, np.zeros_like(inside)])
     t, uv = trace_each(tracer, orgs, dirs)
     assert not np.isnan(t[0])                   # the reference ray hits
     assert np.isnan(t[1:]).all(), t
