@@ -775,6 +775,14 @@ inline int disp_bisect_piece(const DispFrame* f, float P0, float P1, DispPiece* 
     return 1;
 }
 
+/* Whether this program takes maxmip on the shape by disp_maxmip_bisect (spheres and
+ * cylinders: TX_DISP_MAXMIP_CURVED; trapezoids: TX_DISP_MAXMIP_TRAPEZOID). */
+inline int disp_bisected(uint shape)
+{
+    if (TX_DISP_MAXMIP_TRAPEZOID && shape == DISP_TRAPEZOID) return 1;
+    return TX_DISP_MAXMIP_CURVED && (shape == DISP_SPHERE || shape == DISP_CYLINDER);
+}
+
 inline int disp_maxmip_bisect(__global const ushort* hts, __global const Displaced* d, const DispFrame* f,
                               float A, float B, int any, int from_outside, float* t_hit, float2* uv_hit)
 {
@@ -936,9 +944,7 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
         hit = disp_maxmip(hts, d, &f, A, B, any, from_outside, t, uv);
     }
 #if TX_DISP_MAXMIP_CURVED || TX_DISP_MAXMIP_TRAPEZOID
-    else if ((method & 3u) == DISP_MAXMIP
-             && ((TX_DISP_MAXMIP_CURVED && (f.shape == DISP_SPHERE || f.shape == DISP_CYLINDER))
-                 || (TX_DISP_MAXMIP_TRAPEZOID && f.shape == DISP_TRAPEZOID))) {
+    else if ((method & 3u) == DISP_MAXMIP && disp_bisected(f.shape)) {
         hit = disp_maxmip_bisect(hts, d, &f, A, B, any, from_outside, t, uv);
     }
 #endif

@@ -101,8 +101,9 @@ class Quad:
 
     def displaced_record(self, rec, hmin, hmax):
         """Fill the shape's fields of the layout.DISPLACED record ``rec``; the (lo, hi) box
-        of the slab [hmin, hmax] along the normal (Quad.world checked that a searched
-        quad is a parallelogram)."""
+        of the slab [hmin, hmax] along the normal (Quad.world checked that a searched or
+        maxmip quad is planar and convex: a parallelogram is a DISP_QUAD, any other a
+        DISP_TRAPEZOID)."""
         p, uv = self.world()
         e0, e1 = p[1] - p[0], p[3] - p[0]
         n = np.cross(e0, e1)
