@@ -133,6 +133,77 @@ def trapezoid_reference(d, corners, org, dirs, samples=4000):
     return np.where(ok, th, np.nan), uv[:, 0]
 
 
+def height_texture(a):
+    """A one-channel texture of the 2-D array a (row 0 on top)."""
+    import texray as tx
+    return tx.Texture.from_array(np.asarray(a, np.float32).reshape(a.shape[0], a.shape[1], 1))
+
+
+def sines(n=48, a=0.5, k=3.0, rows=np.sin):
+    """h = a sin(k x) rows(k y) + a at the texel centres of an n x n map (texture row 0 on top;
+    rows=np.cos makes it smooth across the u seam of a sphere or cylinder)."""
+    c = (np.arange(n) + 0.5) / n * 2 * np.pi
+    return height_texture(a + a * np.sin(k * c)[None, :] * rows(k * c)[:, None])
+
+
+def one_texel_spikes(n=64, count=40, margin=6, seed=3):
+    """An n x n map, 0 but for `count` texels of 1 at least `margin` texels from its border:
+    (the array, the spikes' texel-centre u, v)."""
+    a = np.zeros((n, n))
+    ij = np.random.default_rng(seed).integers(margin, n - margin, (count, 2))
+    a[ij[:, 0], ij[:, 1]] = 1.0
+    return a, (ij[:, 1] + 0.5) / n, 1 - (ij[:, 0] + 0.5) / n
+
+
+def first_hits_agree(a, b, rtol):
+    """Hit distances a (maxmip) and b (a fine search) of the same rays, NaN for misses: hit and
+    miss agree on 99% of the rays, more than half hit, t within rtol on 99% of those."""
+    assert (np.isnan(a) == np.isnan(b)).mean() >= 0.99
+    both = ~np.isnan(a) & ~np.isnan(b)
+    assert both.mean() > 0.5
+    assert (np.abs(a[both] - b[both]) / b[both] <= rtol).mean() >= 0.99
+
+
+def shadows_agree(tracers, pts, nrm, inner, light):
+    """Any-hit rays of the "maxmip" and "search" Tracers in ``tracers`` (self-shadowing):
+    from just above the surface points pts (2e-4 along their unit normals nrm, so that the
+    side a ray starts on is not rounding's) toward lights 0.8 away along the unit vectors
+    light, from the points ``inner`` of the shell toward a far light, and from outside
+    toward pts. maxmip is occluded where the search is on 99% of the rays (the search's
+    own surface differs by its error: a ray grazing a crest can flip), some rays are and
+    some are not; rays leaving pts along nrm are never occluded by maxmip, on at most 1%
+    by the search (its surface can lie just over a point of maxmip's)."""
+    far = 3 * light[0] / np.linalg.norm(light[0])
+    occ = {}
+    for method, tracer in tracers.items():
+        o1 = tracer.occluded(pts + 2e-4 * nrm, 0.8 * light)[0]                       # from the surface
+        o2 = tracer.occluded(inner, far - inner)[0]                                  # from within the shell
+        o3 = tracer.occluded(np.broadcast_to(2 * far, pts.shape), pts - 2 * far, tmax=0.999)[0]   # from outside
+        away = tracer.occluded(pts, 0.05 * nrm)[0]
+        occ[method] = (np.concatenate([o1, o2, o3]), away, o1)
+    a, b = occ["maxmip"][0], occ["search"][0]
+    assert 0.05 < a.mean() < 0.95 and 0.02 < occ["maxmip"][2].mean() < 0.98
+    assert (a == b).mean() >= 0.99, (a != b).sum()
+    assert not occ["maxmip"][1].any() and occ["search"][1].mean() <= 0.01, occ["search"][1].sum()
+
+
+def aovs_agree(a, b, uv_wraps=False):
+    """Images a (maxmip) and b (a fine search) rendered with the depth, position, uv and
+    shading_normal AOVs: the same first hits on 99.5% of the pixels, and where both hit,
+    the AOVs (depth, position, uv within 1e-4, shading normal within 1e-3; u modulo 1 where
+    uv_wraps) and the colour (within 2e-3) on 99%. The mask of pixels both hit."""
+    da, db = a.aov["depth"][..., 0], b.aov["depth"][..., 0]
+    assert (np.isnan(da) == np.isnan(db)).mean() >= 0.995
+    both = ~np.isnan(da) & ~np.isnan(db)
+    for name, tol in (("depth", 1e-4), ("position", 1e-4), ("uv", 1e-4), ("shading_normal", 1e-3)):
+        diff = np.abs(a.aov[name] - b.aov[name]).max(axis=-1)[both]
+        if name == "uv" and uv_wraps:
+            diff = np.minimum(diff, 1 - diff)
+        assert np.mean(diff <= tol) >= 0.99, (name, np.percentile(diff, 99))
+    assert np.mean(np.abs(a.rgb - b.rgb).max(axis=-1)[both] <= 2e-3) >= 0.99
+    return both
+
+
 def trace_each(tracer, orgs, dirs):
     """Closest hits of rays with per-ray origins (Tracer takes one origin per batch):
     (t, NaN for a miss; the primitive's (u, v))."""

@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 import texray as tx
 from texray.renderer.trace import Tracer
-from disp_reference import TRAPEZOID, inverse_bilinear, trace_each, trapezoid_reference
+from disp_reference import TRAPEZOID, aovs_agree, first_hits_agree, height_texture as _tex, inverse_bilinear, \
+    one_texel_spikes, shadows_agree, sines as _sines, trace_each, trapezoid_reference
 
 T_TRAP = 1e-4        # relative t error of maxmip against the float64 root (module docstring)
 T_FINE = 1e-3        # relative t difference of maxmip and the search at N = 1024, M = 12
@@ -36,16 +37,6 @@ QUADS = {
     "kite": _tilt(((0, 0, 1.2), (0.8, 0, 0), (0, 0, -0.6), (-0.8, 0, 0))),
     "tapered": _tilt(((-1.2, 0, 1), (1.2, 0, 1), (0.08, 0, -1), (-0.08, 0, -1)), -15.0),
 }
-
-
-def _tex(a):
-    return tx.Texture.from_array(np.asarray(a, np.float32).reshape(a.shape[0], a.shape[1], 1))
-
-
-def _sines(n=48, a=0.5, k=3.0):
-    """h = a sin(k x) sin(k y) + a at the texel centres (texture row 0 on top)."""
-    c = (np.arange(n) + 0.5) / n * 2 * np.pi
-    return _tex(a + a * np.sin(k * c)[None, :] * np.sin(k * c)[:, None])
 
 
 def _quad(kind, d):
@@ -211,12 +202,7 @@ def test_maxmip_never_misses_one_texel_spikes(device, kind):
     """One-texel spikes on a flat map; rays at 8 degrees aimed just below each spike's top:
     maxmip hits every one (its traversal skips only intervals that cannot hold a root),
     where the reference does, and a coarse search (N = 4) misses some."""
-    n = 64
-    a = np.zeros((n, n))
-    rng = np.random.default_rng(3)
-    ij = rng.integers(6, n - 6, (40, 2))
-    a[ij[:, 0], ij[:, 1]] = 1.0
-    u, v = (ij[:, 1] + 0.5) / n, 1 - (ij[:, 0] + 0.5) / n           # the spikes' texel centres
+    a, u, v = one_texel_spikes()
     found = {}
     for method, steps in (("maxmip", 1), ("search", 4)):
         d = tx.Displacement(_tex(a), scale=0.1, method=method, steps=steps)
@@ -248,11 +234,7 @@ def test_maxmip_agrees_with_a_fine_search(device, kind):
             orgs, dirs = _grazing_rays(quad, elev, r.uniform(0.05, 0.95, 300), r.uniform(0.05, 0.95, 300), seed=elev)
             ts.append(trace_each(tracer, orgs, dirs)[0])
         hits[method] = np.concatenate(ts)
-    a, b = hits["maxmip"], hits["search"]
-    assert (np.isnan(a) == np.isnan(b)).mean() >= 0.99
-    both = ~np.isnan(a) & ~np.isnan(b)
-    assert both.mean() > 0.5
-    assert (np.abs(a[both] - b[both]) / b[both] <= T_FINE).mean() >= 0.99
+    first_hits_agree(hits["maxmip"], hits["search"], T_FINE)
 
 
 @pytest.mark.parametrize("kind", sorted(QUADS))
@@ -279,21 +261,8 @@ def test_maxmip_shadows_as_the_search(device, kind):
     side /= np.linalg.norm(side, axis=1)[:, None]
     elev = np.radians(r.uniform(3, 60, len(pts)))[:, None]
     light = np.cos(elev) * side + np.sin(elev) * nrm
-    start = pts + 2e-4 * nrm
     q, qn, _ = _frame(quad, r.uniform(0, 1, 400), r.uniform(0, 1, 400))
-    inner = q + r.uniform(0, SCALE, 400)[:, None] * qn
-    far = 3 * light[0]
-    occ = {}
-    for method, tracer in tracers.items():
-        o1 = tracer.occluded(start, 0.8 * light)[0]                  # from the surface
-        o2 = tracer.occluded(inner, far - inner)[0]                  # from within the shell
-        o3 = tracer.occluded(np.broadcast_to(2 * far, pts.shape), pts - 2 * far, tmax=0.999)[0]   # from outside
-        away = tracer.occluded(pts, 0.05 * nrm)[0]
-        occ[method] = (np.concatenate([o1, o2, o3]), away, o1)
-    a, b = occ["maxmip"][0], occ["search"][0]
-    assert 0.05 < a.mean() < 0.95 and 0.02 < occ["maxmip"][2].mean() < 0.98
-    assert (a == b).mean() >= 0.99, (a != b).sum()
-    assert not occ["maxmip"][1].any() and occ["search"][1].mean() <= 0.01, occ["search"][1].sum()
+    shadows_agree(tracers, pts, nrm, q + r.uniform(0, SCALE, 400)[:, None] * qn, light)
 
 
 @pytest.mark.parametrize("heights", ["zero", "one", "single"])
@@ -366,14 +335,8 @@ def test_maxmip_aovs_silhouettes_and_shading_as_the_search(device):
             s.add(tx.Quad(*(QUADS[kind] + shift), material=tx.Material(displacement=d)))
         out[method] = tx.render(s, 96, 72, 1, device=device, jitter=False,
                                 aovs=("depth", "position", "uv", "shading_normal"))
-    a, b, plain = out["maxmip"], out["search"], out[None]
-    da, db, dp = (o.aov["depth"][..., 0] for o in (a, b, plain))
-    assert (np.isnan(da) == np.isnan(db)).mean() >= 0.995
-    both = ~np.isnan(da) & ~np.isnan(db)
+    both = aovs_agree(out["maxmip"], out["search"])
     assert both.mean() > 0.2
+    da, db, dp = (out[m].aov["depth"][..., 0] for m in ("maxmip", "search", None))
     sil = ~np.isnan(da) & np.isnan(dp)            # over the plain quads' outline
     assert sil.sum() >= 10 and (~np.isnan(db[sil])).mean() >= 0.9, sil.sum()
-    for name, tol in (("depth", 1e-4), ("position", 1e-4), ("uv", 1e-4), ("shading_normal", 1e-3)):
-        diff = np.abs(a.aov[name] - b.aov[name]).max(axis=-1)[both]
-        assert np.mean(diff <= tol) >= 0.99, (name, np.percentile(diff, 99))
-    assert np.mean(np.abs(a.rgb - b.rgb).max(axis=-1)[both] <= 2e-3) >= 0.99
