@@ -7,6 +7,7 @@ from texray.device import layout
 from texray.scene import heightfield as HF
 
 CORNERS = ((-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1))     # u along +x, v along -z, n = +y
+TRAPEZOID = ((-1.2, 0, 1), (1.2, 0, 1), (0.6, 0, -1), (-0.5, 0, -1.1))     # planar, convex, no two sides parallel
 
 
 def quad_reference(d, org, dirs, samples=4000):
@@ -49,6 +50,158 @@ def quad_reference(d, org, dirs, samples=4000):
     th = 0.5 * (lo_t + hi_t)
     uv = (lo + th[:, None] * ld)[:, :2]
     return np.where(ok, th, np.nan), uv
+
+
+def inverse_bilinear(q, p):
+    """float64 (u, v) of the points q (..., 3) on the planar quad p (4, 3) by its bilinear
+    patch p0 + u e0 + v e1 + u v g, solved independently of the kernel: Newton on the two
+    in-plane equations from the parallelogram's affine guess (NaN where it does not converge)."""
+    e0, e1, g = p[1] - p[0], p[3] - p[0], p[0] - p[1] + p[2] - p[3]
+    n = np.cross(e0, e1)
+    n /= np.linalg.norm(n)
+    a1 = e0 / np.linalg.norm(e0)
+    a2 = np.cross(n, a1)
+    basis = np.stack([a1, a2])                     # in-plane coordinates
+    r = (q - p[0]) @ basis.T
+    E0, E1, G = e0 @ basis.T, e1 @ basis.T, g @ basis.T
+    uv = r @ np.linalg.inv(np.stack([E0, E1]))      # the affine guess
+    for _ in range(30):
+        u, v = uv[..., :1], uv[..., 1:]
+        res = u * E0 + v * E1 + u * v * G - r
+        ju, jv = E0 + v * G, E1 + u * G
+        det = ju[..., 0] * jv[..., 1] - ju[..., 1] * jv[..., 0]
+        du = (res[..., 0] * jv[..., 1] - res[..., 1] * jv[..., 0]) / det
+        dv = (ju[..., 0] * res[..., 1] - ju[..., 1] * res[..., 0]) / det
+        uv = uv - np.stack([du, dv], -1)
+    u, v = uv[..., 0], uv[..., 1]
+    res = u[..., None] * E0 + v[..., None] * E1 + (u * v)[..., None] * G - r
+    return np.where((np.abs(res) < 1e-9).all(-1)[..., None], uv, np.nan)
+
+
+def trapezoid_reference(d, corners, org, dirs, samples=4000):
+    """float64 (t, uv) of the first crossing of each ray with the displaced planar convex quad
+    ``corners`` (f = h - H(u, v), +inf outside the (u, v) domain), as quad_reference: samples
+    over the ray's part (t >= 0) in the slab [min H, max H] along the normal over the quad
+    (within the half-spaces of its four edges, widened by 1e-9). Rays parallel to the plane
+    are not handled."""
+    p = np.asarray(corners, np.float64)
+    n = np.cross(p[1] - p[0], p[3] - p[0])
+    n /= np.linalg.norm(n)
+    h = d.heights()
+    org = np.broadcast_to(np.asarray(org, np.float64), np.shape(dirs))
+    dirs = np.asarray(dirs, np.float64)
+    ho, hd = (org - p[0]) @ n, dirs @ n
+    t0, t1 = (h.min() - 1e-9 - ho) / hd, (h.max() + 1e-9 - ho) / hd
+    tn, tf = np.maximum(np.minimum(t0, t1), 0), np.maximum(t0, t1)
+    for i in range(4):                                   # (q - p_i) . (n x edge) >= 0: inside
+        m = np.cross(n, p[(i + 1) % 4] - p[i])
+        m /= np.linalg.norm(m)
+        a, b = (org - p[i]) @ m + 1e-9, dirs @ m
+        with np.errstate(divide="ignore", invalid="ignore"):
+            te = -a / b
+        tn, tf = np.where(b > 0, np.maximum(tn, te), tn), np.where(b < 0, np.minimum(tf, te), tf)
+        tf = np.where((b == 0) & (a < 0), -np.inf, tf)   # parallel to the edge, outside it
+    tf = np.maximum(tf, tn)                              # an empty part: no samples over the quad, a miss
+
+    def f(t):
+        q = org[:, None] + t[..., None] * dirs[:, None]
+        uv = inverse_bilinear(q, p)
+        u, v = uv[..., 0], uv[..., 1]
+        inside = (u >= -1e-12) & (u <= 1 + 1e-12) & (v >= -1e-12) & (v <= 1 + 1e-12)
+        hq = (q - p[0]) @ n
+        with np.errstate(invalid="ignore"):
+            return np.where(inside, hq - HF.height(h, np.clip(np.nan_to_num(u), 0, 1),
+                                                    np.clip(np.nan_to_num(v), 0, 1), d.wrap), np.inf), uv
+
+    t = tn[:, None] + np.linspace(0, 1, samples)[None] * (tf - tn)[:, None]
+    fv, _ = f(t)
+    below = fv < 0
+    first = np.argmax(np.isfinite(fv), axis=1)          # the first sample over the quad sets the side
+    rows = np.arange(len(t))
+    start = below[rows, first]
+    change = (below != start[:, None]) & np.isfinite(fv) & (np.arange(samples)[None] > first[:, None])
+    ok = change.any(axis=1)
+    i = np.argmax(change, axis=1)
+    lo_t, hi_t = t[rows, np.maximum(i - 1, 0)], t[rows, i]
+    for _ in range(50):
+        mid = 0.5 * (lo_t + hi_t)
+        fm, _ = f(mid[:, None])
+        same = (fm[:, 0] < 0) == start
+        lo_t, hi_t = np.where(same, mid, lo_t), np.where(same, hi_t, mid)
+    th = 0.5 * (lo_t + hi_t)
+    _, uv = f(th[:, None])
+    return np.where(ok, th, np.nan), uv[:, 0]
+
+
+def height_texture(a):
+    """A one-channel texture of the 2-D array a (row 0 on top)."""
+    import texray as tx
+    return tx.Texture.from_array(np.asarray(a, np.float32).reshape(a.shape[0], a.shape[1], 1))
+
+
+def sines(n=48, a=0.5, k=3.0, rows=np.sin):
+    """h = a sin(k x) rows(k y) + a at the texel centres of an n x n map (texture row 0 on top;
+    rows=np.cos makes it smooth across the u seam of a sphere or cylinder)."""
+    c = (np.arange(n) + 0.5) / n * 2 * np.pi
+    return height_texture(a + a * np.sin(k * c)[None, :] * rows(k * c)[:, None])
+
+
+def one_texel_spikes(n=64, count=40, margin=6, seed=3):
+    """An n x n map, 0 but for `count` texels of 1 at least `margin` texels from its border:
+    (the array, the spikes' texel-centre u, v)."""
+    a = np.zeros((n, n))
+    ij = np.random.default_rng(seed).integers(margin, n - margin, (count, 2))
+    a[ij[:, 0], ij[:, 1]] = 1.0
+    return a, (ij[:, 1] + 0.5) / n, 1 - (ij[:, 0] + 0.5) / n
+
+
+def first_hits_agree(a, b, rtol):
+    """Hit distances a (maxmip) and b (a fine search) of the same rays, NaN for misses: hit and
+    miss agree on 99% of the rays, more than half hit, t within rtol on 99% of those."""
+    assert (np.isnan(a) == np.isnan(b)).mean() >= 0.99
+    both = ~np.isnan(a) & ~np.isnan(b)
+    assert both.mean() > 0.5
+    assert (np.abs(a[both] - b[both]) / b[both] <= rtol).mean() >= 0.99
+
+
+def shadows_agree(tracers, pts, nrm, inner, light):
+    """Any-hit rays of the "maxmip" and "search" Tracers in ``tracers`` (self-shadowing):
+    from just above the surface points pts (2e-4 along their unit normals nrm, so that the
+    side a ray starts on is not rounding's) toward lights 0.8 away along the unit vectors
+    light, from the points ``inner`` of the shell toward a far light, and from outside
+    toward pts. maxmip is occluded where the search is on 99% of the rays (the search's
+    own surface differs by its error: a ray grazing a crest can flip), some rays are and
+    some are not; rays leaving pts along nrm are never occluded by maxmip, on at most 1%
+    by the search (its surface can lie just over a point of maxmip's)."""
+    far = 3 * light[0] / np.linalg.norm(light[0])
+    occ = {}
+    for method, tracer in tracers.items():
+        o1 = tracer.occluded(pts + 2e-4 * nrm, 0.8 * light)[0]                       # from the surface
+        o2 = tracer.occluded(inner, far - inner)[0]                                  # from within the shell
+        o3 = tracer.occluded(np.broadcast_to(2 * far, pts.shape), pts - 2 * far, tmax=0.999)[0]   # from outside
+        away = tracer.occluded(pts, 0.05 * nrm)[0]
+        occ[method] = (np.concatenate([o1, o2, o3]), away, o1)
+    a, b = occ["maxmip"][0], occ["search"][0]
+    assert 0.05 < a.mean() < 0.95 and 0.02 < occ["maxmip"][2].mean() < 0.98
+    assert (a == b).mean() >= 0.99, (a != b).sum()
+    assert not occ["maxmip"][1].any() and occ["search"][1].mean() <= 0.01, occ["search"][1].sum()
+
+
+def aovs_agree(a, b, uv_wraps=False):
+    """Images a (maxmip) and b (a fine search) rendered with the depth, position, uv and
+    shading_normal AOVs: the same first hits on 99.5% of the pixels, and where both hit,
+    the AOVs (depth, position, uv within 1e-4, shading normal within 1e-3; u modulo 1 where
+    uv_wraps) and the colour (within 2e-3) on 99%. The mask of pixels both hit."""
+    da, db = a.aov["depth"][..., 0], b.aov["depth"][..., 0]
+    assert (np.isnan(da) == np.isnan(db)).mean() >= 0.995
+    both = ~np.isnan(da) & ~np.isnan(db)
+    for name, tol in (("depth", 1e-4), ("position", 1e-4), ("uv", 1e-4), ("shading_normal", 1e-3)):
+        diff = np.abs(a.aov[name] - b.aov[name]).max(axis=-1)[both]
+        if name == "uv" and uv_wraps:
+            diff = np.minimum(diff, 1 - diff)
+        assert np.mean(diff <= tol) >= 0.99, (name, np.percentile(diff, 99))
+    assert np.mean(np.abs(a.rgb - b.rgb).max(axis=-1)[both] <= 2e-3) >= 0.99
+    return both
 
 
 def trace_each(tracer, orgs, dirs):

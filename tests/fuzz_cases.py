@@ -962,8 +962,7 @@ def _valid_material(ch, L, kind, parallelogram=False, mapped=False, planar_conve
         kw["normal_map"] = call("tx.NormalMap", _valid_texture(ch, L, "normal"),
                                 convention=ch.choice(["opengl", "directx"]), space=ch.choice(["tangent", "object"]))
     if kind in ("sphere", "cylinder", "quad") + (() if mapped else ("mesh",)) and ch.boolean(0.25):
-        methods = ["tessellate"] + (["search", "maxmip"] if parallelogram or kind != "quad" else
-                                    ["search"] if planar_convex else [])
+        methods = ["tessellate"] + (["search", "maxmip"] if parallelogram or planar_convex or kind != "quad" else [])
         if kind == "mesh":                         # texray.compile.tessellate_mesh, .shells
             methods = ["tessellate", "search"]
         method = ch.choice(methods)
@@ -1064,7 +1063,7 @@ def gen_random_scene(ch, knobs=frozenset()) -> Case:
                          axis_x=(1, 0, 0), material=mat, transform=tf_world, **extra)
         elif kind == "quad":
             para = ch.boolean(0.5)
-            trapezoid = not para and ch.boolean(0.5)      # planar and convex: the search displaces it
+            trapezoid = not para and ch.boolean(0.5)      # planar and convex: search and maxmip displace it
             mat = _valid_material(ch, L, "quad", parallelogram=para, planar_convex=trapezoid)
             p0 = np.array(c)
             e0, e1 = np.array(vec3(ch, -1, 1)), np.array(vec3(ch, -1, 1))

@@ -32,10 +32,11 @@
  *     bilinear patch between four texel centres) f is a quadratic in t, solved
  *     exactly. Conservative: a cell is only skipped when it cannot hold a root, so
  *     no spike is missed whatever its width. On parallelogram quads (u, v, h affine
- *     in t), and on spheres and cylinders (TX_DISP_MAXMIP_CURVED, disp_maxmip_curved:
- *     the segment cut into pieces where u, v and h are monotone in t, each bisected
+ *     in t); on spheres, cylinders (TX_DISP_MAXMIP_CURVED) and trapezoids
+ *     (TX_DISP_MAXMIP_TRAPEZOID) by disp_maxmip_bisect: the segment cut into pieces
+ *     where u, v and h are monotone in t (a trapezoid's is one piece), each bisected
  *     in t against the pyramid, texel cells by the bilinear patch's bound and a
- *     bracketed regula falsi); the host refuses it on trapezoids and meshes.
+ *     bracketed regula falsi; the host refuses it on meshes.
  *
  * DISP_TRIANGLE (TX_DISP_MESH): one triangle of a displaced mesh, the surface
  * S = P(b1, b2) + H N(b1, b2) with P and N interpolated linearly from the corners and
@@ -590,8 +591,9 @@ inline int disp_maxmip(__global const ushort* hts, __global const Displaced* d, 
     return 0;
 }
 
-#if TX_DISP_MAXMIP_CURVED
-/* Maxmip on spheres and cylinders (header comment): the ray's segment [A, B] is cut into
+#if TX_DISP_MAXMIP_CURVED || TX_DISP_MAXMIP_TRAPEZOID
+/* Maxmip on spheres, cylinders (TX_DISP_MAXMIP_CURVED) and trapezoids
+ * (TX_DISP_MAXMIP_TRAPEZOID; header comment): the ray's segment [A, B] is cut into
  * pieces on which the cell coordinates X = u W + 1/2, Y = (1 - v) H + 1/2 and the height
  * h are all monotone in t, and each piece is bisected in t (a dyadic, stackless
  * traversal, left half first) against the min-max pyramid.
@@ -606,6 +608,18 @@ inline int disp_maxmip(__global const ushort* hts, __global const Displaced* d, 
  * relative to the piece's midpoint (continuous: a piece sweeps less than pi), so no piece
  * wraps around the seam.
  *
+ * A trapezoid (any planar convex quad that is no parallelogram) needs no cut: h is linear
+ * in t, and u, v are monotone along the ray's foot in the plane while it stays over the
+ * quad (the quad's part of the ray's segment, disp_clip). The iso-u and iso-v curves of
+ * its bilinear patch are straight lines, and the inverse is smooth with a Jacobian that
+ * never vanishes over a convex quad: where du/dt = 0 the foot runs along an iso-u line, a
+ * straight line, so it stays on it and u is constant on the whole segment (a ray along
+ * the normal, or one whose foot lies on an iso line); else du/dt keeps its sign; v
+ * likewise. (The Jacobian [e0 + v g, e1 + u g] is affine in (u, v), positive at the
+ * corners of a convex quad, so positive over it.)
+ * (tests/kernels/test_displace_trapezoid.py checks this in float64 along rays at 0 to 90
+ * degrees from the normal.) X, Y come from disp_inverse_bilinear, exactly the search's (u, v).
+ *
  * An interval [ta, tb] of a piece then has its ray inside the rectangle spanned by its
  * ends' (X, Y) (widened by 2^-16 of the texture's size, a rounding bound) at heights
  * between its ends' h (widened by delta). The height field over that rectangle is bounded
@@ -615,37 +629,41 @@ inline int disp_maxmip(__global const ushort* hts, __global const Displaced* d, 
  * rectangle at the corners), so the bound tightens as the interval shrinks. The interval
  * is skipped when the two ranges are disjoint (its side of the surface then known), else
  * halved. At level 0, f is evaluated at the interval's ends: ends on either side of the
- * surface, over at most TX_DISP_CURVED_LEAF texel in X and Y, are taken to bracket one
+ * surface, over at most TX_DISP_BISECT_LEAF texel in X and Y, are taken to bracket one
  * root (f there is close to the quadratic of a quad's texel cell, which has at most two
  * roots: one sign change means one), polished by Illinois' regula falsi
- * (TX_DISP_CURVED_POLISH steps, then a secant step). An interval over at most
- * TX_DISP_CURVED_FINE texel in X and Y with no sign change at its ends is not halved
+ * (TX_DISP_BISECT_POLISH steps, then a secant step). An interval over at most
+ * TX_DISP_BISECT_FINE texel in X and Y with no sign change at its ends is not halved
  * further: it holds no hit. This is where the traversal is not exact: the bound test alone
  * would need ever shorter intervals for a ray skimming just above the surface, so a ray
  * that dips below the surface and out again within 1/64 texel of (u, v) is missed (a
  * near-tangent ray; the search misses it too, between its samples); every root with a
  * sign change between such intervals is found, whatever the spike's width. Intervals are
- * also not halved below TX_DISP_CURVED_DEPTH levels or where the midpoint no longer splits
+ * also not halved below TX_DISP_BISECT_DEPTH levels or where the midpoint no longer splits
  * them in float32 (their ends' signs decide). A side of the surface that changes from one
  * interval (or piece) to the next, with no root between (a map that does not wrap across
  * the seam), is a crossing at their shared end, as the search sees it. Every loop is
  * bounded: pieces <= 5, bisection steps <= a cap from the texture's size (reached: a miss),
- * polish steps <= TX_DISP_CURVED_POLISH. */
-#define TX_DISP_CURVED_DEPTH 24       /* dyadic levels of a piece: indices k < 2^24 are exact floats */
-#define TX_DISP_CURVED_POLISH 16      /* regula falsi (Illinois) steps in a final bracket */
-#define TX_DISP_CURVED_LEAF 0.25f     /* a bracket this small in X and Y (texels) holds one root */
-#define TX_DISP_CURVED_FINE 0.015625f /* an interval this small in X and Y (1/64 texel) is not halved further */
+ * polish steps <= TX_DISP_BISECT_POLISH. */
+#define TX_DISP_BISECT_DEPTH 24       /* dyadic levels of a piece: indices k < 2^24 are exact floats */
+#define TX_DISP_BISECT_POLISH 16      /* regula falsi (Illinois) steps in a final bracket */
+#define TX_DISP_BISECT_LEAF 0.25f     /* a bracket this small in X and Y (texels) holds one root */
+#define TX_DISP_BISECT_FINE 0.015625f /* an interval this small in X and Y (1/64 texel) is not halved further */
 
 typedef struct {
     float px, py;       /* the piece's reference direction: its midpoint's (x, y) about the axis */
-    float xm, kx;       /* X at the reference direction; dX / d(azimuth) (0 on the axis) */
-    float ky, kz;       /* sphere: dY / d(polar angle); cylinder: Y = ky + kz z */
+    float xm, kx;       /* X at the reference direction; dX / d(azimuth) (0 on the axis); trapezoid: X = xm + kx u */
+    float ky, kz;       /* sphere: dY / d(polar angle); cylinder: Y = ky + kz z; trapezoid: Y = ky + kz v */
 } DispPiece;
 
 /* (X, Y, h) of the ray's point t on a piece. */
 inline float3 disp_piece_xyh(const DispFrame* f, const DispPiece* pc, float t)
 {
     float3 q = f->q0 + t * f->dir;
+    if (TX_DISP_MAXMIP_TRAPEZOID && f->shape == DISP_TRAPEZOID) {
+        float3 l = disp_local(f, q);
+        return (float3)(pc->xm + pc->kx * l.x, pc->ky + pc->kz * l.y, l.z);
+    }
     float x = dot3(q, f->e0), y = dot3(q, f->e1), z = dot3(q, f->n);
     float rho = tx_hypot(x, y);
     float X = pc->xm + pc->kx * tx_atan2(pc->px * y - pc->py * x, pc->px * x + pc->py * y);
@@ -695,33 +713,21 @@ inline float disp_meridian(float c, float s, float x0, float y0, float dx, float
 
 /* A root found at t, the side of the surface after it `below`: a hit (return 1) unless
  * an any-hit ray that started inside leaves the surface it starts on (header comment). */
-inline int disp_curved_counts(int any, int from_outside, int below)
+inline int disp_bisect_counts(int any, int from_outside, int below)
 {
     return !any || below || from_outside;
 }
 
-inline int disp_maxmip_curved(__global const ushort* hts, __global const Displaced* d, const DispFrame* f,
-                              float A, float B, int any, int from_outside, float* t_hit, float2* uv_hit)
+/* The cuts of [A, B] into pieces (the comment above TX_DISP_BISECT_DEPTH), sorted into s;
+ * their count (<= 4; none for a trapezoid). */
+inline int disp_bisect_cuts(const DispFrame* f, float A, float B, float* s)
 {
-    int levels = TX_MIN((int)d->levels, TX_DISP_MAX_LEVELS);
-    if (levels < 1 || f->w < 1 || f->h < 1) return 0;
-    uint off[TX_DISP_MAX_LEVELS];
-    int cw[TX_DISP_MAX_LEVELS];
-    off[0] = d->moff; cw[0] = f->w + 1;
-    int ch0 = f->h + 1, chl = ch0;
-    for (int l = 1; l < levels; ++l) {
-        off[l] = off[l - 1] + 2u * (uint)(cw[l - 1] * chl);
-        cw[l] = (cw[l - 1] + 1) / 2; chl = (chl + 1) / 2;
-    }
+    int ns = 0;
+    if (TX_DISP_MAXMIP_TRAPEZOID && f->shape == DISP_TRAPEZOID) return 0;
     int sphere = f->shape == DISP_SPHERE;
-    float W = (float)f->w, Hf = (float)f->h;
     float span = sphere ? 2.0f * M_PI_F : f->span;
     float x0 = dot3(f->q0, f->e0), y0 = dot3(f->q0, f->e1), z0 = dot3(f->q0, f->n);
     float dx = dot3(f->dir, f->e0), dy = dot3(f->dir, f->e1), dz = dot3(f->dir, f->n);
-
-    /* The cuts (function comment), sorted. */
-    float s[6];
-    int ns = 0;
     float dd = dx * dx + dy * dy;
     disp_cut(-(x0 * dx + y0 * dy) / dd, A, B, s, &ns);                 /* closest to the axis */
     if (sphere) {
@@ -736,30 +742,74 @@ inline int disp_maxmip_curved(__global const ushort* hts, __global const Displac
     }
     for (int i = 1; i < ns; ++i)
         for (int j = i; j > 0 && s[j - 1] > s[j]; --j) { float a = s[j]; s[j] = s[j - 1]; s[j - 1] = a; }
+    return ns;
+}
+
+/* The piece [P0, P1]'s map from the ray to (X, Y, h) (DispPiece); 0 where the piece has no
+ * surface (a partial cylinder's gap). */
+inline int disp_bisect_piece(const DispFrame* f, float P0, float P1, DispPiece* pc)
+{
+    float W = (float)f->w, Hf = (float)f->h;
+    if (TX_DISP_MAXMIP_TRAPEZOID && f->shape == DISP_TRAPEZOID) {   /* X = u W + 1/2, Y = (1 - v) H + 1/2 */
+        pc->px = pc->py = 0.0f;
+        pc->xm = 0.5f; pc->kx = W;
+        pc->ky = Hf + 0.5f; pc->kz = -Hf;
+        return 1;
+    }
+    int sphere = f->shape == DISP_SPHERE;
+    float span = sphere ? 2.0f * M_PI_F : f->span;
+    float tm = 0.5f * (P0 + P1);
+    float3 qm = f->q0 + tm * f->dir;
+    pc->px = dot3(qm, f->e0); pc->py = dot3(qm, f->e1);
+    float um;
+    if (sphere) {
+        um = azimuth_u(pc->px, pc->py);
+        pc->ky = Hf * M_1_PI_F; pc->kz = 0.0f;
+    } else {
+        um = cylinder_theta_rel(pc->px, pc->py, f->th0) / span;
+        pc->kz = -Hf / (f->z1 - f->z0); pc->ky = 0.5f - f->z1 * pc->kz;    /* (1 - v) H + 1/2 */
+    }
+    if (!(um <= 1.0f)) return 0;
+    pc->xm = um * W + 0.5f;
+    pc->kx = pc->px != 0.0f || pc->py != 0.0f ? W / span : 0.0f;
+    return 1;
+}
+
+/* Whether this program takes maxmip on the shape by disp_maxmip_bisect (spheres and
+ * cylinders: TX_DISP_MAXMIP_CURVED; trapezoids: TX_DISP_MAXMIP_TRAPEZOID). */
+inline int disp_bisected(uint shape)
+{
+    if (TX_DISP_MAXMIP_TRAPEZOID && shape == DISP_TRAPEZOID) return 1;
+    return TX_DISP_MAXMIP_CURVED && (shape == DISP_SPHERE || shape == DISP_CYLINDER);
+}
+
+inline int disp_maxmip_bisect(__global const ushort* hts, __global const Displaced* d, const DispFrame* f,
+                              float A, float B, int any, int from_outside, float* t_hit, float2* uv_hit)
+{
+    int levels = TX_MIN((int)d->levels, TX_DISP_MAX_LEVELS);
+    if (levels < 1 || f->w < 1 || f->h < 1) return 0;
+    uint off[TX_DISP_MAX_LEVELS];
+    int cw[TX_DISP_MAX_LEVELS];
+    off[0] = d->moff; cw[0] = f->w + 1;
+    int ch0 = f->h + 1, chl = ch0;
+    for (int l = 1; l < levels; ++l) {
+        off[l] = off[l - 1] + 2u * (uint)(cw[l - 1] * chl);
+        cw[l] = (cw[l - 1] + 1) / 2; chl = (chl + 1) / 2;
+    }
+    float W = (float)f->w, Hf = (float)f->h;
+    float s[6];
+    int ns = disp_bisect_cuts(f, A, B, s);
     s[ns] = B;
 
     float epsx = 1.52587890625e-05f * (W + 2.0f), epsy = 1.52587890625e-05f * (Hf + 2.0f);   /* 2^-16 (size + 2) */
     int side = -1;                                       /* below the surface (1), above (0), not yet known (-1) */
-    int budget = (TX_MIN(f->w, 1 << 20) + TX_MIN(f->h, 1 << 20) + 4) * (2 * levels + 2 * TX_DISP_CURVED_DEPTH) + 256;
+    int budget = (TX_MIN(f->w, 1 << 20) + TX_MIN(f->h, 1 << 20) + 4) * (2 * levels + 2 * TX_DISP_BISECT_DEPTH) + 256;
     float P0 = A;
     for (int p = 0; p <= ns; P0 = s[p], ++p) {
         float P1 = s[p];
         if (!(P1 > P0)) continue;
         DispPiece pc;
-        float tm = 0.5f * (P0 + P1);
-        float3 qm = f->q0 + tm * f->dir;
-        pc.px = dot3(qm, f->e0); pc.py = dot3(qm, f->e1);
-        float um;
-        if (sphere) {
-            um = azimuth_u(pc.px, pc.py);
-            pc.ky = Hf * M_1_PI_F; pc.kz = 0.0f;
-        } else {
-            um = cylinder_theta_rel(pc.px, pc.py, f->th0) / span;
-            pc.kz = -Hf / (f->z1 - f->z0); pc.ky = 0.5f - f->z1 * pc.kz;    /* (1 - v) H + 1/2 */
-        }
-        if (!(um <= 1.0f)) continue;                     /* a partial cylinder's gap: no surface */
-        pc.xm = um * W + 0.5f;
-        pc.kx = pc.px != 0.0f || pc.py != 0.0f ? W / span : 0.0f;
+        if (!disp_bisect_piece(f, P0, P1, &pc)) continue;
 
         /* Dyadic traversal of [P0, P1]: interval k of 2^dep, its left end ta / ea carried. */
         float len = P1 - P0, scale = 1.0f;
@@ -800,31 +850,31 @@ inline int disp_maxmip_curved(__global const ushort* hts, __global const Displac
             int next = 1;                                /* go on to the next interval (else: halve this one) */
             if (hlo > Hhi || hhi < Hlo) {                /* no root: the interval's side is known */
                 int below = hhi < Hlo;
-                if (side >= 0 && below != side && disp_curved_counts(any, from_outside, below)) {
+                if (side >= 0 && below != side && disp_bisect_counts(any, from_outside, below)) {
                     *t_hit = ta; *uv_hit = disp_xy_uv(f, ea);
                     return 1;
                 }
                 side = below;
             } else {
                 float tmid = P0 + len * ((float)(2u * k + 1u) * (0.5f * scale));
-                int split = dep < TX_DISP_CURVED_DEPTH && tmid > ta && tmid < tb;
+                int split = dep < TX_DISP_BISECT_DEPTH && tmid > ta && tmid < tb;
                 if (L == 0 || !split) {
                     /* f at the ends (at ta: carried from the interval before, or its parent) */
                     if (!fa_ok) fa = ea.z - disp_height_xy(hts, f, ea.x, ea.y);
                     fb = eb.z - disp_height_xy(hts, f, eb.x, eb.y);
                     fa_ok = fb_ok = 1;
                     int ba = fa < 0.0f, bb = fb < 0.0f;
-                    if (side >= 0 && ba != side && disp_curved_counts(any, from_outside, ba)) {
+                    if (side >= 0 && ba != side && disp_bisect_counts(any, from_outside, ba)) {
                         *t_hit = ta; *uv_hit = disp_xy_uv(f, ea);
                         return 1;
                     }
                     side = ba;
                     float ex = fabs(eb.x - ea.x), ey = fabs(eb.y - ea.y);
-                    if (bb != side && (!split || (ex <= TX_DISP_CURVED_LEAF && ey <= TX_DISP_CURVED_LEAF))) {
+                    if (bb != side && (!split || (ex <= TX_DISP_BISECT_LEAF && ey <= TX_DISP_BISECT_LEAF))) {
                         /* A bracket: Illinois' regula falsi, then a secant step. */
                         float lo = ta, hi = tb, flo = fa, fhi = fb;
                         int last = 0;
-                        for (int i = 0; i < TX_DISP_CURVED_POLISH && flo != fhi; ++i) {
+                        for (int i = 0; i < TX_DISP_BISECT_POLISH && flo != fhi; ++i) {
                             float m = lo + (hi - lo) * (flo / (flo - fhi));
                             if (!(m > lo && m < hi)) m = 0.5f * (lo + hi);
                             if (!(m > lo && m < hi)) break;
@@ -841,12 +891,12 @@ inline int disp_maxmip_curved(__global const ushort* hts, __global const Displac
                             }
                         }
                         float th = flo != fhi ? clamp(lo + (hi - lo) * (flo / (flo - fhi)), lo, hi) : hi;
-                        if (disp_curved_counts(any, from_outside, bb)) {
+                        if (disp_bisect_counts(any, from_outside, bb)) {
                             *t_hit = th; *uv_hit = disp_xy_uv(f, disp_piece_xyh(f, &pc, th));
                             return 1;
                         }
                         side = bb;                       /* left the surface it starts on */
-                    } else if (split && (bb != side || ex > TX_DISP_CURVED_FINE || ey > TX_DISP_CURVED_FINE)) {
+                    } else if (split && (bb != side || ex > TX_DISP_BISECT_FINE || ey > TX_DISP_BISECT_FINE)) {
                         next = 0;
                     }
                 } else {
@@ -893,9 +943,9 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
     if ((method & 3u) == DISP_MAXMIP && f.shape == DISP_QUAD) {
         hit = disp_maxmip(hts, d, &f, A, B, any, from_outside, t, uv);
     }
-#if TX_DISP_MAXMIP_CURVED
-    else if ((method & 3u) == DISP_MAXMIP && (f.shape == DISP_SPHERE || f.shape == DISP_CYLINDER)) {
-        hit = disp_maxmip_curved(hts, d, &f, A, B, any, from_outside, t, uv);
+#if TX_DISP_MAXMIP_CURVED || TX_DISP_MAXMIP_TRAPEZOID
+    else if ((method & 3u) == DISP_MAXMIP && disp_bisected(f.shape)) {
+        hit = disp_maxmip_bisect(hts, d, &f, A, B, any, from_outside, t, uv);
     }
 #endif
     else {

@@ -12,21 +12,18 @@ import numpy as np
 import pytest
 import texray as tx
 from texray.renderer.trace import Tracer
-from disp_reference import curved_reference, trace_each
+from disp_reference import aovs_agree, curved_reference, first_hits_agree, height_texture as _tex, \
+    one_texel_spikes, shadows_agree, trace_each
+from disp_reference import sines as _plain_sines
 
 T_CURVED = 1e-4       # relative t error of maxmip against the float64 root (module docstring)
 T_FINE = 1e-3         # relative t difference of maxmip and the search at N = 1024, M = 12
 SCALE = 0.15
 
 
-def _tex(a):
-    return tx.Texture.from_array(np.asarray(a, np.float32).reshape(a.shape[0], a.shape[1], 1))
-
-
 def _sines(n=48, a=0.5, k=3.0):
-    """h = a sin(k x) sin(k y) + a at the texel centres (periodic in x: the seam is smooth)."""
-    c = (np.arange(n) + 0.5) / n * 2 * np.pi
-    return _tex(a + a * np.sin(k * c)[None, :] * np.cos(k * c)[:, None])
+    """h = a sin(k x) cos(k y) + a at the texel centres (periodic in x: the seam is smooth)."""
+    return _plain_sines(n, a, k, rows=np.cos)
 
 
 def _shape(kind, d, partial=False):
@@ -143,11 +140,7 @@ def test_maxmip_agrees_with_a_fine_search(kind):
             orgs, dirs = _grazing_rays(shape, elev, r.uniform(0, 1, 300), r.uniform(0.1, 0.9, 300))
             ts.append(trace_each(tracer, orgs, dirs)[0])
         hits[method] = np.concatenate(ts)
-    a, b = hits["maxmip"], hits["search"]
-    assert (np.isnan(a) == np.isnan(b)).mean() >= 0.99
-    both = ~np.isnan(a) & ~np.isnan(b)
-    assert both.mean() > 0.5
-    assert (np.abs(a[both] - b[both]) / b[both] <= T_FINE).mean() >= 0.99
+    first_hits_agree(hits["maxmip"], hits["search"], T_FINE)
 
 
 def test_maxmip_on_a_partial_cylinder():
@@ -165,12 +158,7 @@ def test_maxmip_never_misses_one_texel_spikes(kind):
     """One-texel spikes on a flat map; grazing rays aimed just below each spike's top: maxmip
     hits every one (its traversal skips only cells that cannot hold a root), the reference
     agrees, and a coarse search (N = 4) misses some."""
-    n = 64
-    a = np.zeros((n, n))
-    rng = np.random.default_rng(3)
-    ij = rng.integers(6, n - 6, (40, 2))
-    a[ij[:, 0], ij[:, 1]] = 1.0
-    u, v = (ij[:, 1] + 0.5) / n, 1 - (ij[:, 0] + 0.5) / n           # the spikes' texel centres
+    a, u, v = one_texel_spikes()
     found = {}
     for method, steps in (("maxmip", 1), ("search", 4)):
         d = tx.Displacement(_tex(a), scale=0.1, method=method, steps=steps)
@@ -216,24 +204,8 @@ def test_maxmip_shadows_as_the_search(kind):
     side /= np.linalg.norm(side, axis=1)[:, None]
     elev = np.radians(r.uniform(3, 60, len(pts)))[:, None]
     light = np.cos(elev) * side + np.sin(elev) * nrm                 # 3 to 60 degrees above the base plane
-    start = pts + 2e-4 * nrm          # just above the surface: the side a ray starts on is not rounding's
-    toward = 0.8 * light                                             # a light 0.8 away from each point
     q, qn = shape.surface(r.uniform(0, 1, 400), r.uniform(0.1, 0.9, 400))
-    inner = q + r.uniform(0, SCALE, 400)[:, None] * qn
-    far = 3 * light[0] / np.linalg.norm(light[0])
-    occ = {}
-    for method, tracer in tracers.items():
-        o1 = tracer.occluded(start, toward)[0]                       # from the surface
-        o2 = tracer.occluded(inner, far - inner)[0]                  # from within the shell
-        o3 = tracer.occluded(np.broadcast_to(2 * far, pts.shape), pts - 2 * far, tmax=0.999)[0]   # from outside
-        away = tracer.occluded(pts, 0.05 * nrm)[0]
-        occ[method] = (np.concatenate([o1, o2, o3]), away, o1)
-    a, b = occ["maxmip"][0], occ["search"][0]
-    assert 0.05 < a.mean() < 0.95 and 0.02 < occ["maxmip"][2].mean() < 0.98
-    assert (a == b).mean() >= 0.99, (a != b).sum()
-    # maxmip's own hit points never shadow themselves; the search's surface differs from them
-    # by the search's error, which can put a point just under a crest of its own surface
-    assert not occ["maxmip"][1].any() and occ["search"][1].mean() <= 0.01, occ["search"][1].sum()
+    shadows_agree(tracers, pts, nrm, q + r.uniform(0, SCALE, 400)[:, None] * qn, light)
 
 
 @pytest.mark.parametrize("kind", ["sphere", "cylinder"])
@@ -288,13 +260,5 @@ def test_maxmip_aovs_and_shading_as_the_search():
                           material=tx.Material(displacement=d)))
         out[method] = tx.render(s, 96, 72, 1, device="pocl", jitter=False,
                                 aovs=("depth", "position", "uv", "shading_normal"))
-    a, b = out["maxmip"], out["search"]
-    da, db = a.aov["depth"][..., 0], b.aov["depth"][..., 0]
-    assert (np.isnan(da) == np.isnan(db)).mean() >= 0.995
-    both = ~np.isnan(da) & ~np.isnan(db)
+    both = aovs_agree(out["maxmip"], out["search"], uv_wraps=True)          # u wraps at the seam
     assert both.mean() > 0.2                     # the two shapes cover a quarter of the image
-    for name, tol in (("depth", 1e-4), ("position", 1e-4), ("uv", 1e-4), ("shading_normal", 1e-3)):
-        diff = np.abs(a.aov[name] - b.aov[name]).max(axis=-1)[both]
-        diff = np.minimum(diff, 1 - diff) if name == "uv" else diff           # u wraps at the seam
-        assert np.mean(diff <= tol) >= 0.99, (name, np.percentile(diff, 99))
-    assert np.mean(np.abs(a.rgb - b.rgb).max(axis=-1)[both] <= 2e-3) >= 0.99

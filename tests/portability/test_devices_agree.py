@@ -27,7 +27,7 @@ from conftest import OCLGRIND_LOG, PORTABILITY_DEVICES
 # roles, every primitive kind and mapping.
 SCENES = ["bench/globe.toml", "bench/grazing_quad.toml", "bench/mixed.toml", "bench/brick_wall.toml",
           "bench/displaced_wall.toml", "bench/planet.toml", "bump/normal_mesh.toml", "roles/roles.toml",
-          "showcase.toml", "displacement/trapezoid.toml"]
+          "showcase.toml", "displacement/trapezoid.toml", "displacement/trapezoid_maxmip.toml"]
 
 
 def _oclgrind_log_size():

@@ -149,6 +149,12 @@ def _displaced(items, shells, mats):
     return rec, heights, outward(lo - pad, hi + pad)
 
 
+def _maxmip_on(disp, *shapes) -> bool:
+    """Some record of ``disp`` (layout.DISPLACED) with one of ``shapes`` is displaced by maxmip."""
+    return bool(len(disp)) and bool(np.any(((disp["method"] & 3) == layout.DISP_MAXMIP)
+                                           & np.isin(disp["shape"], shapes)))
+
+
 def _sorted_objects(scene):
     """{shape class: [(obj_id, shape)]} of what the BVH holds directly (tessellated shapes
     as meshes), the [(obj_id, shape)] displaced on the device and the [(obj_id,
@@ -293,9 +299,8 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
                         bump=any(m.bump is not None for m in mats.materials),
                         normal_maps=any(m.normal_map is not None for m in mats.materials),
                         displacement=len(disp) > 0, displaced_meshes=bool(shells),
-                        displaced_curved_maxmip=bool(len(disp)) and bool(np.any(
-                            ((disp["method"] & 3) == layout.DISP_MAXMIP)
-                            & np.isin(disp["shape"], (layout.DISP_SPHERE, layout.DISP_CYLINDER)))),
+                        displaced_curved_maxmip=_maxmip_on(disp, layout.DISP_SPHERE, layout.DISP_CYLINDER),
+                        displaced_trapezoid_maxmip=_maxmip_on(disp, layout.DISP_TRAPEZOID),
                         instances=instances is not None,
                         stack_size=stack_size_for(wide.stack_depth(wide_depth)),
                         max_lights=max_lights_for(len(scene.lights)))

@@ -36,7 +36,8 @@ class Features:
     normal_maps: bool = False      # some material has a normal map (kernels/shading/bump.h)
     displacement: bool = False     # some quad, sphere or cylinder is displaced on the device (geometry/displace.h)
     displaced_meshes: bool = False # some triangle mesh is displaced on the device (prism shells, DISP_TRIANGLE)
-    displaced_curved_maxmip: bool = False  # some sphere or cylinder is displaced by maxmip (disp_maxmip_curved)
+    displaced_curved_maxmip: bool = False  # some sphere or cylinder is displaced by maxmip (disp_maxmip_bisect)
+    displaced_trapezoid_maxmip: bool = False  # some trapezoid (convex quad, no parallelogram) by maxmip (the same)
     instances: bool = False        # some mesh is instanced (two-level BVH: kernels/accel/instance.h)
     adaptive: bool = False         # the fused kernel samples listed pixels and sums Y^2 (texray.renderer.adaptive)
     one_light: bool = False        # each sample takes one of the >= 2 lights (render(light_sampling="one"))
@@ -170,6 +171,7 @@ def compile_options(f: Features, device_kind: str | None = None,
         "TX_DISPLACEMENT": int(f.displacement),
         "TX_DISP_MESH": int(f.displaced_meshes),
         "TX_DISP_MAXMIP_CURVED": int(f.displaced_curved_maxmip),
+        "TX_DISP_MAXMIP_TRAPEZOID": int(f.displaced_trapezoid_maxmip),
         "TX_INSTANCES": int(f.instances),
         "TX_STACK_SIZE": int(f.stack_size),
         "TX_MAX_LIGHTS": int(f.max_lights),

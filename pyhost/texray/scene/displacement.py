@@ -25,12 +25,13 @@ Methods (``Displacement.method``):
   rays from below work too: a cell is skipped when the ray's height over it lies
   entirely above its maximum or below its minimum; in a texel cell the ray meets
   the bilinear interpolant where a quadratic vanishes. Planar parallelogram quads
-  (where (u, v, h) are affine along a ray), spheres and cylinders: there the ray is
-  cut into pieces where u, v and h are monotone and each piece is bisected in t
+  (where (u, v, h) are affine along a ray); spheres, cylinders and other planar
+  convex quads (trapezoids, kites): there the ray is cut into pieces where u, v and
+  h are monotone (a trapezoid's segment is one) and each piece is bisected in t
   against the pyramid (the bilinear patch's exact bound in texel cells), a root
   bracketed by a sign change polished by regula falsi; exact but for a ray that dips
   below the surface and out again within 1/64 texel (kernels/geometry/displace.h
-  disp_maxmip_curved). Not on trapezoids or meshes.
+  disp_maxmip_bisect). Not on meshes.
 * ``"tessellate"``: true geometry on the host (:func:`tessellate`), rendered as a
   triangle mesh: the accuracy reference (meshes: texray.compile.tessellate_mesh).
 
@@ -61,7 +62,7 @@ class Displacement:
 
     method: "search" (linear + binary search, ``steps`` N >= 1 and ``refine`` M >= 0
     bisections; spheres, cylinders, planar convex quads, triangle meshes), "maxmip" (exact hierarchical
-    traversal; quads that are planar parallelograms, spheres, cylinders) or "tessellate" (a triangle mesh, ``resolution`` vertices per
+    traversal; planar convex quads, spheres, cylinders) or "tessellate" (a triangle mesh, ``resolution`` vertices per
     texel and axis). adaptive: N grows with the grazing angle, N / max(|cos|, 1/8)
     (the path through the volume grows as 1/|cos|, so the height step per sample
     stays put up to 8x N).

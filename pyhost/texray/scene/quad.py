@@ -101,8 +101,9 @@ class Quad:
 
     def displaced_record(self, rec, hmin, hmax):
         """Fill the shape's fields of the layout.DISPLACED record ``rec``; the (lo, hi) box
-        of the slab [hmin, hmax] along the normal (Quad.world checked that a searched
-        quad is a parallelogram)."""
+        of the slab [hmin, hmax] along the normal (Quad.world checked that a searched or
+        maxmip quad is planar and convex: a parallelogram is a DISP_QUAD, any other a
+        DISP_TRAPEZOID)."""
         p, uv = self.world()
         e0, e1 = p[1] - p[0], p[3] - p[0]
         n = np.cross(e0, e1)
@@ -125,10 +126,11 @@ def _parallelogram(p):
 
 
 def _check_displaceable(p, method, where):
-    """SceneError unless the per-pixel methods can displace the quad with world corners p:
-    "search" takes a planar convex quad (a parallelogram, or a trapezoid or any other
-    convex quad: kernels/geometry/displace.h inverts its bilinear patch in the plane),
-    "maxmip" a parallelogram (its traversal needs (u, v, h) affine along the ray)."""
+    """SceneError unless the per-pixel methods ("search", "maxmip") can displace the quad with
+    world corners p: a planar convex quad (a parallelogram, or a trapezoid or any other
+    convex quad: kernels/geometry/displace.h inverts its bilinear patch in the plane; maxmip
+    traverses a parallelogram's cells along the ray, (u, v, h) affine there, and bisects a
+    trapezoid's segment in t, disp_maxmip_bisect)."""
     field = f"{where}material.displacement.method"
     e0, e1 = p[1] - p[0], p[3] - p[0]
     n = np.cross(e0, e1)
@@ -142,10 +144,6 @@ def _check_displaceable(p, method, where):
                          f"p0, p1, p3 (corners {V.show(p)}): use method = \"tessellate\"")
     if _parallelogram(p):
         return
-    if method == "maxmip":
-        raise SceneError(f"{field}: 'maxmip' displaces parallelogram quads only (p0 + p2 = p1 + p3); this quad's "
-                         f"corners are {V.show(p)}: use method = \"search\" (any planar convex quad) or "
-                         f"\"tessellate\"")
     turns = [np.dot(np.cross(p[(i + 1) % 4] - p[i], p[(i + 2) % 4] - p[(i + 1) % 4]), n) for i in range(4)]
     if not min(turns) > 0:
         raise SceneError(f"{field}: {method!r} displaces convex quads only (corners in order around the quad, "
