@@ -144,6 +144,29 @@ def test_a_worker_killed_mid_render_changes_nothing(scenes_dir, device, client, 
     client.wait_for_workers(2, timeout=120)      # the nanny restarts it for the next tests
 
 
+def test_a_band_the_cluster_loses_is_submitted_again(scenes_dir, device, client, many_bands, monkeypatch):
+    """A band task cancelled by someone else (as when a worker dies while its result is being
+    fetched: Dask's "already forgotten") is submitted again, up to BAND_RETRIES times; then a
+    DeviceError names the rows."""
+    from texray.renderer.render import setup
+    scene = _scene(scenes_dir)
+    local = tx.render(scene, 48, 64, 4, device=device)
+    s = setup(scene, 48, 64, 4, device=device)
+    bands = distributed.submit_bands(client, s.cs, s.camera, 48, 64, 4, None, s.options)
+    assert len(bands.futures) >= 3
+    lost = bands.futures[1]
+    client.cancel(lost)
+    out = bands.collect()
+    np.testing.assert_array_equal(out.rgb, local.rgb)
+    assert bands.futures[1].key != lost.key          # the band went out again, under a new key
+    monkeypatch.setattr(distributed, "BAND_RETRIES", 0)
+    bands = distributed.submit_bands(client, s.cs, s.camera, 48, 64, 4, None, s.options)
+    client.cancel(bands.futures[2])
+    a, b = bands.bands[2]
+    with pytest.raises(DeviceError, match=f"lost the band of rows {a}..{b - 1} 1 times"):
+        bands.collect()
+
+
 def test_worker_errors_arrive_as_texray_errors(scenes_dir, client):
     scene = _scene(scenes_dir)
     with pytest.raises(DeviceError, match="no-such-device"):

@@ -49,6 +49,7 @@ SHIPPED_PER_CLIENT = 4        # compiled scenes kept on a cluster per client (ne
 UPLOADS_PER_WORKER = 2        # scenes whose device buffers a worker keeps
 INSTALL = "pip install 'texray[dask]'"
 CONNECT_TIMEOUT = "10s"          # to reach a scheduler given by its address
+BAND_RETRIES = 3                 # times a band the cluster lost (a task cancelled not by texray) is resubmitted
 
 _clients: dict = {}                                   # scheduler address -> Client made for it
 _shipped: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # Client -> OrderedDict(key -> Future)
@@ -233,6 +234,7 @@ class Bands:
     per_band: int
     workers: int
     t_submit: float = field(default_factory=time.perf_counter)
+    resubmit: object = None     # band index -> a new future for it (see collect)
 
     def collect(self, progress=None, sink=None) -> "Collected":
         """The image's rows (or, with ``sink``, each band given to it in order of y0 and
@@ -245,11 +247,28 @@ class Bands:
         aov = {} if sink is None else None
         results, next_i, done = {}, 0, 0
         index = {f.key: i for i, f in enumerate(self.futures)}
+        retries = {}
         try:
-            for fut in dd.as_completed(self.futures):
-                r = fut.result()
-                done += 1
+            pending = dd.as_completed(self.futures)
+            for fut in pending:
                 i = index[fut.key]
+                try:
+                    r = fut.result()
+                except dd.CancelledError:
+                    # Not cancelled by us (that only happens below, on the way out): the cluster
+                    # lost the task, e.g. a worker died while its result was being fetched
+                    # ("already forgotten"). The band is submitted again, a few times at most.
+                    retries[i] = retries.get(i, 0) + 1
+                    if self.resubmit is None or retries[i] > BAND_RETRIES:
+                        a, b = self.bands[i]
+                        raise DeviceError(f"render: client: the Dask cluster lost the band of rows {a}..{b - 1} "
+                                          f"{retries[i]} times (its task was cancelled, not by texray)") from None
+                    new = self.resubmit(i)
+                    self.futures[i] = new
+                    index[new.key] = i
+                    pending.add(new)
+                    continue
+                done += 1
                 if sink is None:
                     a, b = r["rows"]
                     rgb[a - y_start:b - y_start] = r["rgb"]
@@ -320,12 +339,14 @@ def submit_bands(client, cs, camera, width, height, spp, rows, options) -> Bands
         workers = len(client.scheduler_info().get("workers", {}))
     per = band_rows(width, y_end - y_start, spp, workers, _rates.get(client))
     fut, key, shipped = ship(client, cs)
-    token = uuid.uuid4().hex[:12]
     bands = [(a, min(a + per, y_end)) for a in range(y_start, y_end, per)]
-    futures = [client.submit(render_band, fut, key, camera, width, height, spp, band, options,
-                             key=f"texray-band-{token}-{band[0]}", pure=False) for band in bands]
+
+    def submit(i):
+        return client.submit(render_band, fut, key, camera, width, height, spp, bands[i], options,
+                             key=f"texray-band-{uuid.uuid4().hex[:12]}-{bands[i][0]}", pure=False)
+    futures = [submit(i) for i in range(len(bands))]
     return Bands(client=client, futures=futures, bands=bands, width=width, rows=(y_start, y_end), ship=shipped,
-                 per_band=per, workers=workers)
+                 per_band=per, workers=workers, resubmit=submit)
 
 
 def render_bands(client, cs, camera, width, height, spp, rows, options, progress=None, sink=None) -> Collected:
