@@ -64,16 +64,21 @@ def inverse_bilinear(q, p):
     basis = np.stack([a1, a2])                     # in-plane coordinates
     r = (q - p[0]) @ basis.T
     E0, E1, G = e0 @ basis.T, e1 @ basis.T, g @ basis.T
-    uv = r @ np.linalg.inv(np.stack([E0, E1]))      # the affine guess
-    for _ in range(30):
-        u, v = uv[..., :1], uv[..., 1:]
-        res = u * E0 + v * E1 + u * v * G - r
-        ju, jv = E0 + v * G, E1 + u * G
-        det = ju[..., 0] * jv[..., 1] - ju[..., 1] * jv[..., 0]
-        du = (res[..., 0] * jv[..., 1] - res[..., 1] * jv[..., 0]) / det
-        dv = (ju[..., 0] * res[..., 1] - ju[..., 1] * res[..., 0]) / det
-        uv = uv - np.stack([du, dv], -1)
-    u, v = uv[..., 0], uv[..., 1]
+    inv = np.linalg.inv(np.stack([E0, E1]))
+    x, y = r[..., 0], r[..., 1]
+    u, v = x * inv[0, 0] + y * inv[1, 0], x * inv[0, 1] + y * inv[1, 1]      # the affine guess
+    (e0x, e0y), (e1x, e1y), (gx, gy) = E0, E1, G
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for _ in range(30):                         # until the steps are below 1e-15 (quadratic: a few)
+            uvp = u * v
+            rx, ry = u * e0x + v * e1x + uvp * gx - x, u * e0y + v * e1y + uvp * gy - y
+            jux, juy, jvx, jvy = e0x + v * gx, e0y + v * gy, e1x + u * gx, e1y + u * gy
+            det = jux * jvy - juy * jvx
+            du, dv = (rx * jvy - ry * jvx) / det, (jux * ry - juy * rx) / det
+            u, v = u - du, v - dv
+            if not (np.abs(du) > 1e-15).any() and not (np.abs(dv) > 1e-15).any():
+                break
+    uv = np.stack([u, v], -1)
     res = u[..., None] * E0 + v[..., None] * E1 + (u * v)[..., None] * G - r
     return np.where((np.abs(res) < 1e-9).all(-1)[..., None], uv, np.nan)
 
