@@ -338,12 +338,22 @@ def test_packet_override_is_checked(monkeypatch):
     assert packet_width(Features(triangles=True, spheres=True), "nvidia") == 8
 
 
+_STORE_GEOM = r"""
+/* A Geom as 17 floats: p, ng, dpdu, dpdv, uv, perr. */
+inline void store_geom(const Geom* g, __global float* o)
+{
+    vstore3(g->p, 0, o); vstore3(g->ng, 0, o + 3); vstore3(g->dpdu, 0, o + 6); vstore3(g->dpdv, 0, o + 9);
+    vstore2(g->uv, 0, o + 12); vstore3(g->perr, 0, o + 14);
+}
+"""
+
+
 _SPHERE_GEOM_KERNEL = r"""
 #include "core/common.h"
 #include "core/accurate.h"
 #include "geometry/sphere.h"
 #include "accel/packet.h"
-
+""" + _STORE_GEOM + r"""
 /* Work-item i: rays TX_PACKET i .. as one packet, ray k against sphere sidx[k]: sphere_geom
  * lane by lane (out_s) and sphere_geom_packet over the lanes with a hit (out_p), 17 floats
  * each (p, ng, dpdu, dpdv, uv, perr); hit[k] whether sphere_intersect hit. */
@@ -376,14 +386,8 @@ __kernel void sphere_geoms(__global const Sphere* spheres, __global const uint* 
         uint k = TX_PACKET * i + j;
         hit[k] = act[j];
         if (!act[j]) continue;
-        const Geom* g2[2] = { gs + j, gp + j };
-        __global float* outs[2] = { out_s + 17 * k, out_p + 17 * k };
-        for (int v = 0; v < 2; ++v) {
-            const Geom* g = g2[v];
-            __global float* o = outs[v];
-            vstore3(g->p, 0, o); vstore3(g->ng, 0, o + 3); vstore3(g->dpdu, 0, o + 6); vstore3(g->dpdv, 0, o + 9);
-            vstore2(g->uv, 0, o + 12); vstore3(g->perr, 0, o + 14);
-        }
+        store_geom(gs + j, out_s + 17 * k);
+        store_geom(gp + j, out_p + 17 * k);
     }
 }
 """
@@ -461,7 +465,7 @@ _QUAD_GEOM_KERNEL = r"""
 #include "core/accurate.h"
 #include "geometry/quad.h"
 #include "accel/packet.h"
-
+""" + _STORE_GEOM + r"""
 /* Work-item i: lanes k = TX_PACKET i .. with quad qidx[k] at the parameters (u, v)[k]:
  * quad_geom lane by lane (out_s) and quad_geom_packet (out_p), 17 floats each. */
 __kernel void quad_geoms(__global const QuadVerts* quads, __global const QuadShade* qs, __global const uint* qidx,
@@ -481,14 +485,8 @@ __kernel void quad_geoms(__global const QuadVerts* quads, __global const QuadSha
     quad_geom_packet(quads, qs, idx, (pint)(-1), (pfloat)(TX_LANES(pu)), (pfloat)(TX_LANES(pv)), gp);
     for (uint j = 0; j < (uint)TX_PACKET; ++j) {
         uint k = TX_PACKET * i + j;
-        const Geom* g2[2] = { gs + j, gp + j };
-        __global float* outs[2] = { out_s + 17 * k, out_p + 17 * k };
-        for (int v = 0; v < 2; ++v) {
-            const Geom* g = g2[v];
-            __global float* o = outs[v];
-            vstore3(g->p, 0, o); vstore3(g->ng, 0, o + 3); vstore3(g->dpdu, 0, o + 6); vstore3(g->dpdv, 0, o + 9);
-            vstore2(g->uv, 0, o + 12); vstore3(g->perr, 0, o + 14);
-        }
+        store_geom(gs + j, out_s + 17 * k);
+        store_geom(gp + j, out_p + 17 * k);
     }
 }
 """
