@@ -67,13 +67,12 @@ static inline __attribute__((always_inline)) pfloat3 pf3_unit_or(pfloat3 v, pflo
 }
 
 /* Lane j's Geom from the vectors of a packet geometry (geometry/sphere_packet.h,
- * quad_packet.h), for the lanes of m; the others' left as they were. */
-inline void geom_store_packet(pint m, pfloat3 p, pfloat3 ng, pfloat3 dpdu, pfloat3 dpdv, pfloat u, pfloat v,
+ * quad_packet.h), for the lanes j with ml[j] set (a lane mask stored by the caller); the
+ * others' left as they were. */
+inline void geom_store_packet(const int* ml, pfloat3 p, pfloat3 ng, pfloat3 dpdu, pfloat3 dpdv, pfloat u, pfloat v,
                               pfloat3 perr, Geom* g)
 {
-    int ml[TX_PACKET];
     float o[17][TX_PACKET];
-    PSTORE(m, ml);
     PSTORE(p.x, o[0]); PSTORE(p.y, o[1]); PSTORE(p.z, o[2]);
     PSTORE(ng.x, o[3]); PSTORE(ng.y, o[4]); PSTORE(ng.z, o[5]);
     PSTORE(dpdu.x, o[6]); PSTORE(dpdu.y, o[7]); PSTORE(dpdu.z, o[8]);
@@ -91,11 +90,10 @@ inline void geom_store_packet(pint m, pfloat3 p, pfloat3 ng, pfloat3 dpdu, pfloa
     }
 }
 
-/* The lane a gather reads for lanes outside m: the first lane of m (any lane when m is empty). */
-inline uint packet_first_lane(pint m)
+/* The lane a gather reads for lanes outside the stored mask ml: its first lane (lane 0 when
+ * it is empty). */
+inline uint packet_first_lane(const int* ml)
 {
-    int ml[TX_PACKET];
-    PSTORE(m, ml);
     uint k0 = 0u;
     for (uint j = TX_PACKET; j-- > 0u;)
         if (ml[j]) k0 = j;

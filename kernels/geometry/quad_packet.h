@@ -88,7 +88,7 @@ inline void quad_geom_packet(__global const QuadVerts* quads, __global const Qua
 {
     int ml[TX_PACKET];
     PSTORE(m, ml);
-    uint k0 = packet_first_lane(m);                 /* the other lanes read its quad */
+    uint k0 = packet_first_lane(ml);                /* the other lanes read its quad */
     float lp[12][TX_PACKET], lt[8][TX_PACKET];
     for (uint j = 0; j < (uint)TX_PACKET; ++j) {
         uint i = idx[ml[j] ? j : k0];
@@ -132,7 +132,7 @@ inline void quad_geom_packet(__global const QuadVerts* quads, __global const Qua
     pfloat inv = 1.0f / det;
     pfloat3 ds = pf3_scale(inv, pf3_sub(pf3_scale(tvy, pu), pf3_scale(tuy, pv)));
     pfloat3 dt = pf3_scale(inv, pf3_sub(pf3_scale(tux, pv), pf3_scale(tvx, pu)));
-    geom_store_packet(m, p, ng, pf3_sel(ok, ds, pu), pf3_sel(ok, dt, pv), gu, gv, pf3(e, e, e), g);
+    geom_store_packet(ml, p, ng, pf3_sel(ok, ds, pu), pf3_sel(ok, dt, pv), gu, gv, pf3(e, e, e), g);
 }
 
 #endif

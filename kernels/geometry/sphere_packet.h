@@ -37,6 +37,20 @@ inline pfloat sphere_c_packet(pfloat3 fh, pfloat3 fl, pfloat r)
     return s + err;
 }
 
+/* core/quadratic.h's stable_roots lane by lane: the roots of a t^2 + 2 b t + c (root =
+ * sqrt(a disc)), sorted, and whether each may be taken (the small root c/q only where c_ok). */
+inline void stable_roots_packet(pfloat a, pfloat b, pfloat c, pfloat root, pint c_ok, pfloat* t_near,
+                                pfloat* t_far, pint* near_ok, pint* far_ok)
+{
+    pfloat q = -(b + copysign(root, b));
+    pfloat t_small = c / q, t_large = q / a;
+    pint small_first = t_small <= t_large;
+    *t_near = PSEL_F(small_first, t_small, t_large);
+    *t_far = PSEL_F(small_first, t_large, t_small);
+    *near_ok = PSEL_I(small_first, c_ok, (pint)(-1));
+    *far_ok = PSEL_I(small_first, (pint)(-1), c_ok);
+}
+
 /* sphere_intersect(s, org, dir, tmin, tmax) for the lanes m of the packet, tmax per lane:
  * the lanes with a hit, their t into *t. */
 inline pint sphere_intersect_packet(const PacketRay* pr, __global const Sphere* s, pint m, pfloat tmax, pfloat* t)
@@ -59,12 +73,9 @@ inline pint sphere_intersect_packet(const PacketRay* pr, __global const Sphere* 
     pint c_ok = fabs(c) > 2.0f * g6 * g6 * (pf3_dot(fh, fh) + r * r);
     m &= disc >= 0.0f;
     if (!any(m)) return m;
-    /* stable_roots(a, b, c, sqrt(a * disc), c_ok) */
-    pfloat q = -(b + copysign(sqrt(a * disc), b));
-    pfloat t_small = c / q, t_large = q / a;
-    pint small_first = t_small <= t_large;
-    pfloat t_near = PSEL_F(small_first, t_small, t_large), t_far = PSEL_F(small_first, t_large, t_small);
-    pint near_ok = PSEL_I(small_first, c_ok, (pint)(-1)), far_ok = PSEL_I(small_first, (pint)(-1), c_ok);
+    pfloat t_near, t_far;
+    pint near_ok, far_ok;
+    stable_roots_packet(a, b, c, sqrt(a * disc), c_ok, &t_near, &t_far, &near_ok, &far_ok);
     pint hit_near = m & near_ok & (t_near > pr->tmin) & (t_near < tmax);
     pint hit_far = m & ~hit_near & far_ok & (t_far > pr->tmin) & (t_far < tmax);
     *t = PSEL_F(hit_near, t_near, t_far);
@@ -126,7 +137,7 @@ inline void sphere_geom_packet(__global const Sphere* spheres, const uint* idx, 
 {
     int ml[TX_PACKET];
     PSTORE(m, ml);
-    uint k0 = packet_first_lane(m);                 /* the other lanes read its sphere */
+    uint k0 = packet_first_lane(ml);                /* the other lanes read its sphere */
     float lc[4][TX_PACKET], lx[3][TX_PACKET], lz[3][TX_PACKET];
     for (uint j = 0; j < (uint)TX_PACKET; ++j) {
         __global const Sphere* sp = spheres + idx[ml[j] ? j : k0];
@@ -150,11 +161,9 @@ inline void sphere_geom_packet(__global const Sphere* spheres, const uint* idx, 
     pfloat cc = sphere_c_packet(fh, fl, r);
     float g6 = gamma_n(6.0f);
     pint c_ok = fabs(cc) > 2.0f * g6 * g6 * (pf3_dot(fh, fh) + r * r);
-    pfloat q = -(b + copysign(sqrt(a * disc), b));                  /* stable_roots */
-    pfloat t_small = cc / q, t_large = q / a;
-    pint small_first = t_small <= t_large;
-    pfloat t_near = PSEL_F(small_first, t_small, t_large), t_far = PSEL_F(small_first, t_large, t_small);
-    pint near_ok = PSEL_I(small_first, c_ok, (pint)(-1));
+    pfloat t_near, t_far;
+    pint near_ok, far_ok;
+    stable_roots_packet(a, b, cc, sqrt(a * disc), c_ok, &t_near, &t_far, &near_ok, &far_ok);
     /* sphere_root_is_near */
     pint near = PSEL_I(t_near == t_far, near_ok, fabs(t - t_near) <= fabs(t - t_far));
     /* sphere_geom */
@@ -177,7 +186,7 @@ inline void sphere_geom_packet(__global const Sphere* spheres, const uint* idx, 
     pfloat3 dp_dtheta = pf3_sub(pf3_scale(z, pf3_add(pf3_scale(cos_phi, AX), pf3_scale(sin_phi, AY))),
                                 pf3_scale(rho, AZ));
     pfloat3 dpdu = pf3_scale((pfloat)(2.0f * M_PI_F), dp_dphi), dpdv = pf3_scale((pfloat)(-M_PI_F), dp_dtheta);
-    geom_store_packet(m, p, n, dpdu, dpdv, gu, gv, perr, g);
+    geom_store_packet(ml, p, n, dpdu, dpdv, gu, gv, perr, g);
 }
 
 #endif
