@@ -95,12 +95,49 @@ inline uint cmj_grid_m(uint N)
 #define TX_CMJ_SALT_Y 0x02e5be93u
 #define TX_CMJ_SALT_JX 0x967a889bu
 #define TX_CMJ_SALT_JY 0x368cc8b7u
+#define TX_CMJ_SALT_R 0x7d4b2c19u     /* adaptive order's row and column permutations (cmj_cell) */
+#define TX_CMJ_SALT_C 0x3a96f1e5u
+
+/* The grid cell s (column s % m, row s / m) that sample k of pattern p takes.
+ *
+ * Kensler's order: s = a random permutation of k. A whole pattern is stratified, but
+ * its first samples are a random subset of the cells, no better spread than independent
+ * samples: adaptive sampling (TX_ADAPTIVE, texray.renderer.adaptive), which may stop a
+ * pixel after any round of its samples, measured twice the error of a whole pattern of
+ * as many samples (textured meshes, rounds of 8 of a 32-sample pattern: RMSE 0.0086 at
+ * 8.5 samples per pixel against 0.0042 for 8-sample patterns).
+ *
+ * With TX_ADAPTIVE the order is stratified from the first sample: k takes row k % n and
+ * column (k + k / L) % m, L = lcm(m, n), each through its own random permutation of the
+ * pattern (rows and columns relabelled, so that each sample is uniform over the pixel).
+ * Any first t n samples then take every row t times, any first samples every column
+ * equally often to within one (round robin, shifted by one at each multiple of L); within
+ * a run of L samples the (row, column) pairs differ (Chinese remainder theorem), and the
+ * shift gives each run its own class of row - column modulo gcd(m, n): all N take every
+ * cell once, the same stratification as Kensler's, in another order. */
+inline uint cmj_lcm(uint m, uint n)
+{
+    uint a = m, b = n;
+    while (b != 0u) { uint t = a % b; a = b; b = t; }      /* Euclid: a = gcd(m, n), O(log n) steps */
+    return a != 0u ? m / a * n : 1u;
+}
+
+inline uint cmj_cell(uint k, uint N, uint m, uint p)
+{
+#if TX_ADAPTIVE
+    uint n = TX_MAX(N / m, 1u);                             /* N = 0 (never asked): cell 0 */
+    return cmj_permute((k + k / cmj_lcm(m, n)) % m, m, p * TX_CMJ_SALT_C)
+         + m * cmj_permute(k % n, n, p * TX_CMJ_SALT_R);
+#else
+    return cmj_permute(k, N, p * TX_CMJ_SALT_S);
+#endif
+}
 
 /* cmj_sample with the grid's m = cmj_grid_m(N) computed by the caller (once per pixel). */
 inline float2 cmj_sample_m(uint s, uint N, uint m, uint p)
 {
     uint n = N / m;
-    s = cmj_permute(s, N, p * TX_CMJ_SALT_S);
+    s = cmj_cell(s, N, m, p);
     uint sx = cmj_permute(s % m, m, p * TX_CMJ_SALT_X);
     uint sy = cmj_permute(s / m, n, p * TX_CMJ_SALT_Y);
     float jx = cmj_randfloat(s, p * TX_CMJ_SALT_JX);
@@ -171,9 +208,20 @@ inline void cmj_divmod_packet(cmj_uint s, uint m, cmj_uint* q, cmj_uint* r)
 inline void cmj_sample_packet(cmj_uint s, uint N, uint m, cmj_uint p, float* x, float* y)
 {
     uint n = N / m;
-    cmj_uint pn = p * TX_CMJ_SALT_S, px = p * TX_CMJ_SALT_X, py = p * TX_CMJ_SALT_Y;
+    cmj_uint px = p * TX_CMJ_SALT_X, py = p * TX_CMJ_SALT_Y;
     cmj_uint pjx = p * TX_CMJ_SALT_JX, pjy = p * TX_CMJ_SALT_JY;
-    s = cmj_permute_packet(s, N, pn);
+#if TX_ADAPTIVE
+    {                                                    /* cmj_cell's order, lane by lane */
+        uint n1 = TX_MAX(n, 1u);
+        cmj_uint b, r, j, c;
+        cmj_divmod_packet(s, cmj_lcm(m, n1), &b, &r);
+        cmj_divmod_packet(s + b, m, &j, &c);
+        cmj_divmod_packet(s, n1, &j, &r);
+        s = cmj_permute_packet(c, m, p * TX_CMJ_SALT_C) + m * cmj_permute_packet(r, n, p * TX_CMJ_SALT_R);
+    }
+#else
+    s = cmj_permute_packet(s, N, p * TX_CMJ_SALT_S);
+#endif
     cmj_uint sd, sm;
     cmj_divmod_packet(s, m, &sd, &sm);
     cmj_uint sx = cmj_permute_packet(sm, m, px);
@@ -212,7 +260,16 @@ inline uint hash_u32(uint x)
 inline uint light_pick(uint sample, uint p, uint n, uint b)
 {
     if (n == 0u) return 0u;
-    return (sample / (b > 1u ? b : 1u) % n + hash_u32(p ^ TX_LIGHT_SALT) % n) % n;
+#if TX_ADAPTIVE
+    /* b (light_block): the pattern's row count n. cmj_cell takes the rows in turn, so that
+     * the lights in turn would tie each light to rows (or columns); each run of b samples
+     * takes them in a random order of its own instead (each light as often, on random rows) */
+    b = b > 1u ? b : 1u;
+    uint i = sample - sample % b + cmj_permute(sample % b, b, hash_u32(p ^ TX_LIGHT_SALT ^ (sample / b)));
+#else
+    uint i = sample / (b > 1u ? b : 1u);
+#endif
+    return (i % n + hash_u32(p ^ TX_LIGHT_SALT) % n) % n;
 }
 
 /* The block b of light_pick for a pixel of spp samples and n lights: the largest power of two
@@ -227,7 +284,7 @@ inline uint light_pick(uint sample, uint p, uint n, uint b)
 inline uint light_block(uint spp, uint n)
 {
 #if TX_ADAPTIVE
-    return 1u;
+    return TX_MAX(spp / cmj_grid_m(spp), 1u);
 #else
     uint b = 1u;
     while (b < 8u && n != 0u && spp % (2u * b * n) == 0u) b *= 2u;

@@ -9,9 +9,10 @@ from texray.device import layout
 from texray.device.features import Features, compile_options
 
 
-def _sample_positions(rt, spp, width=3, height=2, seed=7):
-    """(spp, height*width, 2) sample positions inside their pixels, from the raygen kernel's rays."""
-    prg = rt.program(compile_options(Features()))
+def _sample_positions(rt, spp, width=3, height=2, seed=7, adaptive=False):
+    """(spp, height*width, 2) sample positions inside their pixels, from the raygen kernel's
+    rays (``adaptive``: the adaptive program's sample order, core/sampler.h cmj_cell)."""
+    prg = rt.program(compile_options(Features(adaptive=adaptive)))
     cam = tx.Camera(eye=(0, 0, 0), look_at=(0, 0, -1), fov_y=90)
     eye, fwd, right, up = cam.basis(width / height)
     c = np.zeros(1, layout.CAMERA)
@@ -45,9 +46,10 @@ def _grid(spp):
     return m, spp // m
 
 
+@pytest.mark.parametrize("adaptive", [False, True])
 @pytest.mark.parametrize("spp", [1, 2, 4, 5, 7, 12, 16, 30, 32])
-def test_samples_are_stratified(rt, spp):
-    pos = _sample_positions(rt, spp)
+def test_samples_are_stratified(rt, spp, adaptive):
+    pos = _sample_positions(rt, spp, adaptive=adaptive)
     assert np.all((pos >= 0) & (pos < 1))
     m, n = _grid(spp)
     assert m * n == spp
@@ -64,11 +66,12 @@ def test_samples_are_stratified(rt, spp):
         assert sorted(cells.tolist()) == list(range(spp)), (spp, pixel)
 
 
+@pytest.mark.parametrize("adaptive", [False, True])
 @pytest.mark.parametrize("spp", [3, 7, 32, 35])
-def test_samples_are_uniform_over_the_pixel(rt, spp):
+def test_samples_are_uniform_over_the_pixel(rt, spp, adaptive):
     """Unbiased: over many pixels' patterns the samples are uniform in the pixel. The
     quadrant fractions are 1/4 within 5 standard deviations of a binomial count."""
-    pos = _sample_positions(rt, spp, width=48, height=32).reshape(-1, 2)
+    pos = _sample_positions(rt, spp, width=48, height=32, adaptive=adaptive).reshape(-1, 2)
     total = len(pos)
     for qx in (0, 1):
         for qy in (0, 1):
@@ -77,6 +80,29 @@ def test_samples_are_uniform_over_the_pixel(rt, spp):
     # the corner band the old 5 x 7 grid never reached for 32 spp
     corner = np.mean((pos[:, 0] > 0.6) & (pos[:, 1] > 6 / 7))
     assert abs(corner - 0.4 / 7) < 5 * np.sqrt(0.057 / total) + 1e-3, (spp, corner)
+
+
+@pytest.mark.parametrize("spp", [16, 32, 64, 12, 24])
+def test_adaptive_prefixes_are_stratified(rt, spp):
+    """Adaptive sampling may stop a pixel after any round (texray.renderer.adaptive): in its
+    order (cmj_cell) the first n samples of the m x n grid take every row once and the
+    columns in turn, the first 2n every row twice; Kensler's order, a random permutation,
+    leaves rows empty. Each sample alone is still uniform over the pixel (the test above)."""
+    m, n = _grid(spp)
+    for adaptive in (True, False):
+        pos = _sample_positions(rt, spp, width=8, height=4, adaptive=adaptive)
+        row = np.floor(pos[..., 1] * n).astype(int)            # (spp, pixels)
+        col = np.floor(pos[..., 0] * m).astype(int)
+        stratified = []
+        for t in (1, 2):
+            for p in range(pos.shape[1]):
+                rows = np.bincount(row[:t * n, p], minlength=n)
+                cols = np.bincount(col[:t * n, p], minlength=m)
+                stratified.append(np.all(rows == t) and cols.max() - cols.min() <= 1)
+        if adaptive:
+            assert all(stratified), (spp, row[:n].T, col[:n].T)
+        else:
+            assert not all(stratified)
 
 
 def test_pixels_get_different_patterns_and_seeds_are_deterministic(rt):
@@ -114,8 +140,9 @@ __kernel void packet_vs_scalar(__global const uint* s, __global const uint* N, _
 """
 
 
+@pytest.mark.parametrize("adaptive", [0, 1])
 @pytest.mark.parametrize("width", [8, 16])
-def test_packet_samples_are_the_scalar_ones_bit_for_bit(rt, rng, width):
+def test_packet_samples_are_the_scalar_ones_bit_for_bit(rt, rng, width, adaptive):
     """stages/fused.cl takes a chunk's sample positions from cmj_sample_packet: every lane
     must be cmj_sample_m's position bit for bit, for power-of-two counts (mask and shift)
     and others (cycle walking and divisions), for one pixel's consecutive samples (lanes past
@@ -132,7 +159,7 @@ def test_packet_samples_are_the_scalar_ones_bit_for_bit(rt, rng, width):
     mixed = np.arange(N.size) % 2 == 1                   # chunks over several pixels: a pattern per lane
     p[mixed] = rng.integers(0, 1 << 32, (mixed.sum(), width), dtype=np.uint64).astype(np.uint32)
     s[mixed] = (rng.integers(0, 1 << 20, (mixed.sum(), width)) % N[mixed, None]).astype(np.uint32)
-    k = build_test_program(rt, (), _PACKET_KERNEL, (f"-DTX_PACKET={width}",))
+    k = build_test_program(rt, (), _PACKET_KERNEL, (f"-DTX_PACKET={width}", f"-DTX_ADAPTIVE={adaptive}"))
     mf = cl.mem_flags
     bufs = [cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a))
             for a in (s, N, p)]

@@ -26,20 +26,49 @@ def hash_u32(x):
     return x
 
 
-def block(spp, k, adaptive=False):
+def block(spp, k):
     """core/sampler.h light_block: the largest power of two up to 8 with spp a multiple of k b."""
     b = 1
-    while not adaptive and b < 8 and spp % (2 * b * k) == 0:
+    while b < 8 and spp % (2 * b * k) == 0:
         b *= 2
     return b
 
 
-def picks(width, height, seed, sample, k, spp, adaptive=False):
+def picks(width, height, seed, sample, k, spp):
     """light_pick(sample, pixel_pattern(...), k, light_block(spp, k)) for every pixel: (height, width) ints."""
     py, px = np.mgrid[0:height, 0:width].astype(np.uint64)
     pattern = hash_u32((py * np.uint64(width) + px) ^ hash_u32(seed))
     off = hash_u32(pattern ^ np.uint64(0x2c1b3c6d)) % np.uint64(k)
-    return ((np.uint64(sample // block(spp, k, adaptive) % k) + off) % np.uint64(k)).astype(int)
+    return ((np.uint64(sample // block(spp, k) % k) + off) % np.uint64(k)).astype(int)
+
+
+_PICK_KERNEL = r"""
+#include "core/common.h"
+#include "core/sampler.h"
+#include "core/camera.h"
+__kernel void device_picks(__global uint* out, uint w, uint n, uint seed, uint spp, uint k)
+{
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    uint p = pixel_pattern(w, i % w, i / w, seed);
+    for (uint s = 0; s < spp; ++s)
+        out[i * spp + s] = light_pick(s, p, k, light_block(spp, k));
+}
+"""
+
+
+def device_picks(rt, width, height, seed, k, spp, adaptive):
+    """The kernels' own light_pick for every sample of every pixel: (spp, height, width) ints."""
+    import pyopencl as cl
+    from kernel_harness import build_test_program
+    prg = build_test_program(rt, (), _PICK_KERNEL, (f"-DTX_ADAPTIVE={int(adaptive)}",))
+    n = width * height
+    out = np.zeros(n * spp, np.uint32)
+    buf = cl.Buffer(rt.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
+    u = np.uint32
+    prg.device_picks(rt.queue, (n,), None, buf, u(width), u(n), u(seed), u(spp), u(k))
+    cl.enqueue_copy(rt.queue, out, buf)
+    return out.reshape(height, width, spp).transpose(2, 0, 1).astype(int)
 
 
 def alone(scene, lights):
@@ -51,12 +80,13 @@ def alone(scene, lights):
     ("bench/textured_meshes.toml", 24, None), ("bench/textured_meshes.toml", 12, None), ("roles/roles.toml", 7, None),
     ("roles/roles.toml", 11, None), ("roles/roles.toml", 32, None),
     ("bench/mixed.toml", 24, 1e-30)])
-def test_each_pixel_takes_the_lights_its_pick_gives(device, scenes_dir, path, spp, adaptive):
+def test_each_pixel_takes_the_lights_its_pick_gives(device, rt, scenes_dir, path, spp, adaptive):
     """Every sample at the pixel centre (jitter=False): a pixel's samples differ only in their
     light, so its mean is A + (k / spp) sum_l n_l (S_l - A), with A the unlit image, S_l the
-    image lit by light l alone and n_l the samples the numpy model of light_pick gives l. With
-    adaptive sampling (blocks of one sample) at a vanishing threshold only pixels whose samples
-    all agree stop early, and their mean is any count's."""
+    image lit by light l alone and n_l the samples the numpy model of light_pick gives l (with
+    adaptive sampling the kernels' own light_pick, which the next test checks). With
+    adaptive sampling at a vanishing threshold only pixels whose samples all agree stop early,
+    and their mean is any count's."""
     scene = tx.Scene.load(scenes_dir / path)
     w, h, seed, k = 48, 36, 3, len(scene.lights)
     assert k >= 2
@@ -67,14 +97,40 @@ def test_each_pixel_takes_the_lights_its_pick_gives(device, scenes_dir, path, sp
     a = tx.render(alone(scene, []), w, h, spp, **kw).rgb.astype(np.float64)
     s = [tx.render(alone(scene, [lt]), w, h, spp, **kw).rgb.astype(np.float64) for lt in scene.lights]
     n = np.zeros((k, h, w))
+    pk = device_picks(rt, w, h, seed, k, spp, adaptive) if adaptive else [picks(w, h, seed, smp, k, spp)
+                                                                          for smp in range(spp)]
+    if not adaptive:
+        np.testing.assert_array_equal(pk, device_picks(rt, w, h, seed, k, spp, False))
     for smp in range(spp):
-        n[picks(w, h, seed, smp, k, spp, adaptive), np.arange(h)[:, None], np.arange(w)[None, :]] += 1
+        n[pk[smp], np.arange(h)[:, None], np.arange(w)[None, :]] += 1
     assert (n.sum(0) == spp).all() and (n.max(0) - n.min(0)).max() <= (0 if spp % k == 0 else 1)   # stratified
     want = a + k / spp * sum(n[i][..., None] * (s[i] - a) for i in range(k))
     np.testing.assert_allclose(one.rgb, want, rtol=2e-5, atol=2e-6)
     # and the pick is not the same light everywhere: both lights take the first sample somewhere
-    first = picks(w, h, seed, 0, k, spp, adaptive)
-    assert all((first == i).any() for i in range(k))
+    assert all((pk[0] == i).any() for i in range(k))
+
+
+@pytest.mark.parametrize("spp, k", [(32, 2), (16, 2), (64, 4), (24, 3), (12, 2)])
+def test_adaptive_picks_are_stratified_per_row_pass_and_not_tied_to_rows(rt, spp, k):
+    """With adaptive sampling the pixel's samples take the pattern's rows in turn
+    (core/sampler.h cmj_cell): each run of b = rows samples (light_block) gives every light
+    as many of its samples (to one, where k does not divide b), in an order of its own, so that
+    no light keeps to some rows: over the pixels, each row's samples take every light."""
+    w, h = 24, 16
+    m = int(np.floor(np.sqrt(spp)))
+    while spp % m:
+        m -= 1
+    rows = spp // m
+    pk = device_picks(rt, w, h, 5, k, spp, True)                    # (spp, h, w)
+    for start in range(0, spp - rows + 1, rows):
+        run = pk[start:start + rows]
+        counts = np.stack([(run == i).sum(0) for i in range(k)])
+        assert counts.max(0).max() - counts.min(0).min() <= (0 if rows % k == 0 else 1), (spp, k, start)
+    # sample s lies in row s % rows: the fraction of pixels that give light 0 to each row's
+    # samples is near 1 / k for every row, not 0 or 1 (a light tied to rows)
+    for r in range(rows):
+        frac = np.mean(pk[r::rows] == 0)
+        assert abs(frac - 1 / k) < 0.15, (spp, k, r, frac)
 
 
 @pytest.mark.parametrize("path", ["bench/mixed.toml", "bench/textured_meshes.toml"])
