@@ -20,10 +20,10 @@
 #define TX_CHUNK 1
 #endif
 /* `pixels` (1 to TX_CHUNK): with TX_MULTI_PIXEL, the pixels each work-item takes, pixels
- * gid * pixels .. + pixels - 1 of the tile, so that a launch of fewer samples per pixel than
- * the packet has lanes still fills them (texray.device.features.pixels_per_item; a kernel
- * argument, so that 1 to 4 spp share one program): the chunks run over the pixels' samples
- * in order, pixel by pixel. Without it (and with TX_ADAPTIVE) one pixel per work-item, the
+ * gid * pixels .. + pixels - 1 of the tile, so that a launch whose samples per pixel are no
+ * multiple of the packet's lanes leaves fewer of them empty (texray.device.features.
+ * pixels_per_item; a kernel argument, so that every such spp shares one program): the chunks
+ * run over the pixels' samples in order, pixel by pixel. Without it (and with TX_ADAPTIVE) one pixel per work-item, the
  * argument unused: the per-pixel arrays are then single values the compiler keeps in
  * registers (a runtime count of 1 measured 14% slower on the globe at 16 spp). */
 #if TX_MULTI_PIXEL && !TX_ADAPTIVE

@@ -261,10 +261,11 @@ def test_rendered_images_do_not_depend_on_the_packet_width(device, monkeypatch):
     assert lit.std() > 0.05 and np.isfinite(lit).all()
 
 
-@pytest.mark.parametrize("spp", [1, 2, 3, 5])
+@pytest.mark.parametrize("spp", [1, 2, 3, 4, 12, 16])
 def test_several_pixels_per_work_item_keep_the_image(device, monkeypatch, spp):
-    """Below the packet's width in samples per launch, each work-item takes several pixels
-    (8, 4, 2 at 1, 2, 3 spp; 1 at 5: pixels_per_item) so that their samples fill the packet: the
+    """Where a pixel's samples per launch leave lanes of its last packet empty, each work-item
+    takes several pixels (8, 4, 8, 2, 2 at 1, 2, 3, 4, 12 spp; 1 at 16: pixels_per_item) so
+    that their samples, pixel by pixel, fill the packets: the
     image is the scalar one bit for bit, on an image whose pixel count is no multiple of 8
     (37 x 23: a work-item's last pixels past the tile's end), cut into tiles of 97 pixels
     (every tile ends inside a work-item's group), with and without jitter."""
@@ -284,7 +285,7 @@ def test_several_pixels_per_work_item_keep_the_image(device, monkeypatch, spp):
         assert np.array_equal(out[w][1], out[0][1]), f"width {w}, {spp} spp, tiles: the image differs"
     assert out[0][0].std() > 0.05 and np.isfinite(out[0][0]).all()
     monkeypatch.setenv("TEXRAY_PACKET", "8")
-    expect = {1: 8, 2: 4, 3: 2, 5: 1}[spp]
+    expect = {1: 8, 2: 4, 3: 8, 4: 2, 12: 2, 16: 1}[spp]
     assert pixels_per_item(Features(shadows=True, triangles=True), runtime(device).kind, spp) == expect
 
 
@@ -295,14 +296,16 @@ def tx_scene(rel):
 
 def test_packet_rule():
     """Packets where they measured faster: PoCL, shadows on; at any spp, several pixels per
-    work-item below 8 samples per launch (pixels_per_item), except adaptive sampling's rounds
+    work-item where one pixel's samples leave lanes empty (pixels_per_item: the fewest packets
+    per pixel, then the fewest pixels), except adaptive sampling's rounds
     (pixels one by one) below PACKET_MIN_SAMPLES. Intel's runtime: only when forced
     (TEXRAY_PACKET), for its slow packet builds."""
     from texray.device.features import pixels_per_item
     tri = Features(shadows=True, triangles=True)
     ada = Features(shadows=True, triangles=True, adaptive=True)
     assert [packet_width(tri, "pocl", n) for n in (1, 2, 3, 4, 16)] == [8] * 5
-    assert [pixels_per_item(tri, "pocl", n) for n in (1, 2, 3, 4, 5, 8, 16)] == [8, 4, 2, 2, 1, 1, 1]
+    assert [pixels_per_item(tri, "pocl", n) for n in (1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 16, 20, 24)] == \
+        [8, 4, 8, 2, 8, 4, 8, 1, 8, 2, 1, 2, 1]
     assert [packet_width(ada, "pocl", n) for n in (1, 3, 4, 8)] == [0, 0, 8, 8]
     assert [pixels_per_item(ada, "pocl", n) for n in (1, 3, 4, 8)] == [1, 1, 1, 1]
     assert packet_width(tri, "nvidia", 16) == 0 and pixels_per_item(tri, "nvidia", 1) == 1

@@ -36,7 +36,7 @@ from .suite import median_spread
 
 
 REF_SPP = 256
-TTE_SPP = (1, 2, 4, 8, 12, 16, 24, 32, 48, 64)
+TTE_SPP = (1, 2, 3, 4, 5, 6, 8, 12, 16, 24, 32, 48, 64)   # no multiple of 8: packets shared by pixels
 TTE_ADAPTIVE = (0.2, 0.1, 0.05, 0.02)      # each with at most 2x Mitsuba's spp
 
 

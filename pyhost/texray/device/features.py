@@ -133,17 +133,19 @@ def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN
 
 def pixels_per_item(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES) -> int:
     """The pixels each work-item of the fused kernel takes (stages/fused.cl's `pixels`): with
-    packets (:func:`packet_width`) and fewer samples per fused launch than lanes, the largest
-    power of two of pixels whose samples fit in one packet (1 spp: 8 pixels in a packet of 8;
-    3 spp: 2 pixels, 6 lanes), so that their camera and shadow rays fill it; else 1. Adaptive
-    sampling takes its pixels one by one from a list (1)."""
+    packets (:func:`packet_width`), the count p <= the packet's width whose p x ``samples``
+    samples (a fused launch's per pixel), run pixel by pixel through packets of the width,
+    leave the fewest empty lanes: the fewest packets per pixel, ceil(p samples / width) / p,
+    the smallest such p (1 spp: 8 pixels in a packet of 8; 3 spp: 8 pixels, 24 samples in 3
+    packets; 12 spp: 2 pixels in 3 packets, where one pixel took 2 packets of 8 for its 12;
+    any multiple of the width: 1). Else 1, and 1 for adaptive sampling, which takes its
+    pixels one by one from a list. Each pixel adds the same terms in the same order
+    whatever p, so the image does not depend on it."""
     width = packet_width(f, device_kind, samples)
     if not width or f.adaptive:
         return 1
-    pixels = 1
-    while 2 * pixels * max(samples, 1) <= width:
-        pixels *= 2
-    return pixels
+    s = max(samples, 1)
+    return min(range(1, width + 1), key=lambda p: (-(-p * s // width) / p, p))
 
 
 def compile_options(f: Features, device_kind: str | None = None,
