@@ -39,18 +39,30 @@ def round_size(spp: int) -> int:
 def standard_error(sum_rgb, sum_y2, n):
     """(mean luminance, standard error of that mean) per pixel, float64, from the
     accumulated sums of n samples (n >= 2)."""
-    sum_y = np.asarray(sum_rgb, np.float64) @ LUMINANCE.astype(np.float64)
+    rgb, w = np.asarray(sum_rgb, np.float64), LUMINANCE.astype(np.float64)
+    sum_y = rgb[:, 0] * w[0] + rgb[:, 1] * w[1] + rgb[:, 2] * w[2]   # not @: no BLAS threads waking
     n = np.asarray(n, np.float64)
     mean = sum_y / n
     var = np.maximum(np.asarray(sum_y2, np.float64) - sum_y * mean, 0.0) / np.maximum(n - 1, 1)
     return mean, np.sqrt(var / n)
 
 
+def unconverged(mean, se, threshold):
+    """Boolean mask of the pixels whose standard error is above the threshold (relative,
+    with the absolute floor below a mean of FLOOR)."""
+    return se > threshold * np.maximum(mean, FLOOR)
+
+
 def still_active(mean, se, threshold, rows, width, y0=0):
     """Boolean (rows * width,) mask of the pixels of the tile of ``rows`` rows from image
     row ``y0`` to keep sampling: not converged, or next to one that is not (3x3 dilation
     within each block of BLOCK_ROWS image rows)."""
-    open_ = (se > threshold * np.maximum(mean, FLOOR)).reshape(rows, width)
+    return dilate(unconverged(mean, se, threshold), rows, width, y0)
+
+
+def dilate(open_, rows, width, y0=0):
+    """still_active from the (rows * width,) mask of unconverged pixels."""
+    open_ = np.asarray(open_, bool).reshape(rows, width)
     y = y0 + np.arange(rows)
     first, last = (y % BLOCK_ROWS == 0)[:, None], (y % BLOCK_ROWS == BLOCK_ROWS - 1)[:, None]
     p = np.pad(open_, ((0, 0), (1, 1)))

@@ -21,7 +21,7 @@ from ..device import layout, runtime
 from ..device.buffers import Uploaded
 from ..device.features import compile_options, pixels_per_item
 from ..errors import DeviceError
-from .adaptive import BLOCK_ROWS, round_size, standard_error, still_active
+from .adaptive import BLOCK_ROWS, dilate, round_size, standard_error, unconverged
 from .tiling import fused_samples, plan_rows
 
 STAGES = ("raygen", "intersect", "surface", "shadow", "shade")
@@ -248,8 +248,12 @@ class _Run:
             if done < spp:
                 cl.enqueue_copy(q, acc, self.accum)
                 cl.enqueue_copy(q, y2, self.sum_y2)
-                mean, se = standard_error(acc[:, :3], y2, acc[:, 3])
-                active = np.flatnonzero(still_active(mean, se, self.adaptive, rows, width, y0)).astype(np.uint32)
+                # Only this round's pixels can be unconverged: one that was not sampled had
+                # converged, and so had its neighbours, and it has no new samples.
+                mean, se = standard_error(acc[active, :3], y2[active], acc[active, 3])
+                open_ = np.zeros(n, bool)
+                open_[active] = unconverged(mean, se, self.adaptive)
+                active = np.flatnonzero(dilate(open_, rows, width, y0)).astype(np.uint32)
 
     def trace(self, gsize, lsize, n, y0, sample, jit, aov):
         """raygen -> intersect -> surface of one sample of the tile (``aov``: the AOV buffer or None)."""
