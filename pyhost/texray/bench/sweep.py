@@ -223,8 +223,8 @@ def with_displacement(scene, method, **knobs):
 
 
 def maxmip_applies(scene):
-    """maxmip displaces planar convex quads, spheres and cylinders (not meshes): does every
-    displaced object take it?"""
+    """maxmip displaces planar convex quads, spheres, cylinders and triangle meshes (their
+    shells): does every displaced object take it?"""
     try:
         compile_scene(with_displacement(scene, "maxmip"))
     except SceneError:
@@ -256,7 +256,7 @@ def search_applies(scene):
 def displacement_series(scene):
     """The displacement sweep's series, one curve per method: the linear + binary search with N
     varying at each M, the adaptive search, maxmip (where every displaced object is a
-    planar convex quad, a sphere or a cylinder: :func:`maxmip_applies`) and the tessellation at 1 and 2 vertices per texel (compared
+    planar convex quad, a sphere, a cylinder or a mesh: :func:`maxmip_applies`) and the tessellation at 1 and 2 vertices per texel (compared
     like the others with the reference, a tessellation at DISP_REF_RESOLUTION). A scene
     where the search does not apply gets the tessellations only (:func:`search_applies`).
     [(series name, [(label, {"method": ..., knobs})])]."""
