@@ -184,3 +184,29 @@ def test_the_traversal_is_compiled_only_where_used_and_nan_rays_miss(device):
     dirs = np.array([[0, -1.0, 0], [0, -1, 0], [np.nan, -1, 0], [0, 0, 0]])
     t, _ = trace_each(tracer, orgs, dirs)
     assert not np.isnan(t[0]) and np.isnan(t[1:]).all()
+
+
+def test_flat_topped_shells_of_a_curved_mesh(device):
+    """scenes/displacement/torus_search.toml by maxmip against the search (N = 256, M = 10) on
+    3000 rays from its camera: hit and miss agree on 99.5%, t within 1e-4 on 99.5% (measured:
+    all hit alike, 2 rays of 15000 where maxmip is nearer: a crest the search at N = 512
+    skips, N = 4096 finds). Its bricks' tops are flat at the map's maximum, so many shells
+    have slo = shi: their leaves' tops and bottoms then lie within rounding of the shell's
+    entry A and exit B, and a leaf clipped to the open interval (A, B) lost both crossings
+    (6% of the hits fell through to the far side of the tube; the first ray below, which
+    hits the top of a brick at t = 2.6417); the leaves are clipped on the ray's (tmin, tmax)."""
+    from pathlib import Path
+    s = tx.Scene.load(Path(__file__).resolve().parents[2] / "scenes" / "displacement" / "torus_search.toml")
+    from texray.bench import sweep
+    rng = np.random.default_rng(5)
+    eye = np.array(s.camera.eye, float)
+    d = rng.uniform([-1, -0.3, -1], [1, 0.3, 1], (3000, 3)) - eye
+    d[0] = [-0.29858990092747445, -0.513265258461926, -0.8046134758504442]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = np.broadcast_to(eye, d.shape).copy()
+    tm, _ = trace_each(Tracer(sweep.with_displacement(s, "maxmip"), device), o, d)
+    ts, _ = trace_each(Tracer(sweep.with_displacement(s, "search", steps=256, refine=10), device), o, d)
+    assert abs(tm[0] - 2.6417) < 1e-3
+    assert np.mean(np.isnan(tm) == np.isnan(ts)) >= 0.995 and np.mean(~np.isnan(tm)) > 0.5
+    both = ~np.isnan(tm) & ~np.isnan(ts)
+    assert np.mean(np.abs(tm[both] - ts[both]) <= 1e-4 * ts[both]) >= 0.995
