@@ -1005,7 +1005,8 @@ inline int disp_maxmip_bisect(__global const ushort* hts, __global const Displac
 #define TX_DISP_MESH_REFINE 4u                         /* and its bisections */
 #define TX_DISP_MESH_NODES 4096                        /* nodes visited per shell */
 
-/* A sub-triangle (o, k) with its h bound [lo, hi] and the ray's slab entry t. */
+/* A sub-triangle (o, k) (corners o, o + (1/k, 0), o + (0, 1/k); |k| = 2^depth, k < 0 the
+ * flipped middle children) with its h bound [lo, hi] and the ray's entry t into its hull. */
 typedef struct {
     float2 o;
     float k, lo, hi, t;
