@@ -36,7 +36,10 @@
  *     (TX_DISP_MAXMIP_TRAPEZOID) by disp_maxmip_bisect: the segment cut into pieces
  *     where u, v and h are monotone in t (a trapezoid's is one piece), each bisected
  *     in t against the pyramid, texel cells by the bilinear patch's bound and a
- *     bracketed regula falsi; the host refuses it on meshes.
+ *     bracketed regula falsi; on mesh triangles (TX_DISP_MAXMIP_MESH) by
+ *     disp_maxmip_mesh: the shell's sub-prisms over sub-triangles, bounded by the pyramid
+ *     over their uv footprints, traversed front to back down to half-texel leaves, each
+ *     clipped exactly and searched.
  *
  * DISP_TRIANGLE (TX_DISP_MESH): one triangle of a displaced mesh, the surface
  * S = P(b1, b2) + H N(b1, b2) with P and N interpolated linearly from the corners and
@@ -348,11 +351,12 @@ inline void disp_tri_crossing(float t, int face, float* ta, float* tb, int* entr
     ++*n;
 }
 
-/* (b1, b2, h) of q in [0, 1]-barycentrics and [hlo, hhi]: q inside the shell. */
-inline int disp_tri_in_shell(const DispFrame* f, float3 q, float hlo, float hhi)
+/* q inside the prism over the sub-triangle (o, k) (disp_tri_clip) between hlo and hhi. */
+inline int disp_tri_in_shell(const DispFrame* f, float3 q, float2 o, float k, float hlo, float hhi)
 {
     float3 b = disp_tri_local(f, q);
-    return b.x >= 0.0f && b.y >= 0.0f && b.x + b.y <= 1.0f && b.z >= hlo && b.z <= hhi;
+    float2 s = (b.xy - o) * k;
+    return s.x >= 0.0f && s.y >= 0.0f && s.x + s.y <= 1.0f && b.z >= hlo && b.z <= hhi;
 }
 
 /* Entry A and exit B of a mesh triangle's prism shell (header comment) within (tmin,
@@ -368,13 +372,17 @@ inline int disp_tri_in_shell(const DispFrame* f, float3 q, float hlo, float hhi)
  * conservative; it returns 2 then, and the search takes all N samples over the box's
  * segment (its ends lie outside the shell, where f is not evaluated).
  * *from_outside: the ray entered through the bottom, the top or a side on the mesh's
- * border (not through a side shared with a neighbour's shell, Displaced.edges). */
-inline int disp_tri_clip(__global const Displaced* d, const DispFrame* f, float tmin, float tmax, float* A, float* B,
-                         int* from_outside)
+ * border (not through a side shared with a neighbour's shell, Displaced.edges).
+ * The same for the prism of a sub-triangle of the triangle (maxmip, disp_maxmip_mesh): c, nv
+ * its corners' positions (relative to P0) and normals, [slo, shi] its h range, (o, k) the
+ * map from the triangle's barycentrics b to the sub-triangle's, (b - o) k (corners o,
+ * o + (1/k, 0), o + (0, 1/k); the whole triangle: o = 0, k = 1, exact), in which the
+ * band and the inside tests are taken; its sides are met by the same bilinear patches,
+ * its bottom and top lie in the triangle's planes at h = slo, shi. */
+inline int disp_tri_clip(__global const Displaced* d, const DispFrame* f, const float3* c, const float3* nv, float2 o,
+                         float k_sub, float slo, float shi, float tmin, float tmax, float* A, float* B, int* from_outside)
 {
-    float hlo = f->slo - f->delta, hhi = f->shi + f->delta;
-    float3 c[3] = { (float3)(0.0f), f->e0, f->e1 };
-    float3 nv[3] = { f->n, f->n + f->dn1, f->n + f->dn2 };
+    float hlo = slo - f->delta, hhi = shi + f->delta;
     float3 lo = (float3)(INFINITY), hi = (float3)(-INFINITY);
     for (int k = 0; k < 3; ++k) {
         float3 a = c[k] + hlo * nv[k], b = c[k] + hhi * nv[k];
@@ -393,7 +401,7 @@ inline int disp_tri_clip(__global const Displaced* d, const DispFrame* f, float 
         if (!(t > tmin && t < tmax)) continue;
         float3 w = f->q0 + t * f->dir - h * f->n;
         float inv = 1.0f / dot3(C, C), b1 = dot3(cross3(w, v), C) * inv, b2 = dot3(cross3(u, w), C) * inv;
-        if (disp_tri_inside((float2)(b1, b2))) disp_tri_crossing(t, 3 + k, &ta, &tb, &entry, &n);
+        if (disp_tri_inside(((float2)(b1, b2) - o) * k_sub)) disp_tri_crossing(t, 3 + k, &ta, &tb, &entry, &n);
     }
     for (int k = 0; k < 3; ++k) {
         int j = k == 2 ? 0 : k + 1;
@@ -405,8 +413,8 @@ inline int disp_tri_clip(__global const Displaced* d, const DispFrame* f, float 
             from = t;
         }
     }
-    int in0 = tn <= tmin && disp_tri_in_shell(f, f->q0 + tmin * f->dir, hlo, hhi);
-    int in1 = tf >= tmax && disp_tri_in_shell(f, f->q0 + tmax * f->dir, hlo, hhi);
+    int in0 = tn <= tmin && disp_tri_in_shell(f, f->q0 + tmin * f->dir, o, k_sub, hlo, hhi);
+    int in1 = tf >= tmax && disp_tri_in_shell(f, f->q0 + tmax * f->dir, o, k_sub, hlo, hhi);
     if ((n + in0 + in1) & 1) {
         *A = tn; *B = tf;
         *from_outside = tn > tmin;
@@ -511,21 +519,33 @@ inline int disp_quadratic_root(float c0, float c1, float c2, float len, int any,
     return 0;
 }
 
+/* The min-max pyramid of the record's heights (texray.displace.minmax_pyramid): level l's
+ * offset off[l] in the height buffer (pairs of unorm16 min, max, row by row) and its cell
+ * grid cw[l] x ch[l] (level 0: (W + 1) x (H + 1) cells between texel centres, then halved,
+ * rounded up). Returns the level count (<= TX_DISP_MAX_LEVELS); 0 where there is no
+ * pyramid to index. */
+inline int disp_pyramid(__global const Displaced* d, const DispFrame* f, uint* off, int* cw, int* ch)
+{
+    int levels = TX_MIN((int)d->levels, TX_DISP_MAX_LEVELS);
+    if (levels < 1 || f->w < 1 || f->h < 1) return 0;
+    off[0] = d->moff; cw[0] = f->w + 1; ch[0] = f->h + 1;
+    for (int l = 1; l < levels; ++l) {
+        off[l] = off[l - 1] + 2u * (uint)(cw[l - 1] * ch[l - 1]);
+        cw[l] = (cw[l - 1] + 1) / 2; ch[l] = (ch[l - 1] + 1) / 2;
+    }
+    return levels;
+}
+
 /* Exact min-max pyramid traversal on [A, B] (quads; header comment). Cell
  * coordinates X = u W + 1/2, Y = (1 - v) H + 1/2 (level 0: (W + 1) x (H + 1) cells),
  * affine in t; cells are tracked as integers, so rounding never loops or skips. */
 inline int disp_maxmip(__global const ushort* hts, __global const Displaced* d, const DispFrame* f, float A, float B,
                        int any, int from_outside, float* t_hit, float2* uv_hit)
 {
-    int levels = TX_MIN((int)d->levels, TX_DISP_MAX_LEVELS);
-    if (levels < 1 || f->w < 1 || f->h < 1) return 0;     /* no pyramid: nothing to index */
     uint off[TX_DISP_MAX_LEVELS];
     int cw[TX_DISP_MAX_LEVELS], ch[TX_DISP_MAX_LEVELS];
-    off[0] = d->moff; cw[0] = f->w + 1; ch[0] = f->h + 1;
-    for (int l = 1; l < levels; ++l) {
-        off[l] = off[l - 1] + 2u * (uint)(cw[l - 1] * ch[l - 1]);
-        cw[l] = (cw[l - 1] + 1) / 2; ch[l] = (ch[l - 1] + 1) / 2;
-    }
+    int levels = disp_pyramid(d, f, off, cw, ch);
+    if (!levels) return 0;                                /* no pyramid: nothing to index */
     float3 lo = disp_local(f, f->q0);
     float3 ld = (float3)(dot3(f->dir, f->r0), dot3(f->dir, f->r1), dot3(f->dir, f->n));
     float W = (float)f->w, H = (float)f->h;
@@ -590,6 +610,54 @@ inline int disp_maxmip(__global const ushort* hts, __global const Displaced* d, 
     }
     return 0;
 }
+
+#if TX_DISP_MAXMIP_CURVED || TX_DISP_MAXMIP_TRAPEZOID || TX_DISP_MAXMIP_MESH
+/* The bilinear patch of a texel cell's corners c at fractions (ax, ay) (disp_height's). */
+inline float disp_bilerp(float4 c, float ax, float ay)
+{
+    return (c.x * (1.0f - ax) + c.y * ax) * (1.0f - ay) + (c.z * (1.0f - ax) + c.w * ax) * ay;
+}
+
+/* Level-0 cell index of the coordinate x, clamped to [0, n - 1] (NaN -> 0). */
+inline int disp_cell_index(float x, int n)
+{
+    return x >= 1.0f ? TX_MIN((int)TX_MIN(x, (float)(n - 1)), n - 1) : 0;
+}
+
+/* (min, max) of the interpolant over the rectangle [xlo, xhi] x [ylo, yhi] of cell
+ * coordinates (indices clamped to the grid, NaN to cell 0): the pyramid's cells at the
+ * finest level *L where it spans at most 2 x 2 of them; at level 0 (at most 2 x 2 texel
+ * cells) the bilinear patch of each cell at the corners of the rectangle's part in it (a
+ * bilinear function has its extremes over an axis-aligned rectangle at the corners), so
+ * the bound tightens as the rectangle shrinks. off, cw, ch0, levels: disp_pyramid's. */
+inline float2 disp_rect_bound(__global const ushort* hts, const DispFrame* f, const uint* off, const int* cw, int ch0,
+                              int levels, float xlo, float xhi, float ylo, float yhi, int* level)
+{
+    int cx0 = disp_cell_index(xlo, cw[0]), cx1 = disp_cell_index(xhi, cw[0]);
+    int cy0 = disp_cell_index(ylo, ch0), cy1 = disp_cell_index(yhi, ch0);
+    int L = 0;
+    float Hlo = INFINITY, Hhi = -INFINITY;
+    while (L < levels - 1 && ((cx1 >> L) - (cx0 >> L) > 1 || (cy1 >> L) - (cy0 >> L) > 1)) ++L;
+    for (int iy = cy0 >> L; iy <= cy1 >> L; ++iy)
+        for (int ix = cx0 >> L; ix <= cx1 >> L; ++ix) {
+            if (L == 0) {                                /* the patch over the rectangle's part in the cell */
+                float4 c = disp_cell_corners(hts, f, ix, iy);
+                float ax0 = clamp(xlo - (float)ix, 0.0f, 1.0f), ax1 = clamp(xhi - (float)ix, 0.0f, 1.0f);
+                float ay0 = clamp(ylo - (float)iy, 0.0f, 1.0f), ay1 = clamp(yhi - (float)iy, 0.0f, 1.0f);
+                float b00 = disp_bilerp(c, ax0, ay0), b10 = disp_bilerp(c, ax1, ay0);
+                float b01 = disp_bilerp(c, ax0, ay1), b11 = disp_bilerp(c, ax1, ay1);
+                Hlo = TX_MIN(Hlo, TX_MIN(TX_MIN(b00, b10), TX_MIN(b01, b11)));
+                Hhi = TX_MAX(Hhi, TX_MAX(TX_MAX(b00, b10), TX_MAX(b01, b11)));
+            } else {
+                float2 mm = f->hmin + convert_float2(vload2(0, hts + off[L] + 2u * (uint)(iy * cw[L] + ix))) * f->hstep;
+                Hlo = TX_MIN(Hlo, mm.x); Hhi = TX_MAX(Hhi, mm.y);
+            }
+        }
+    *level = L;
+    return (float2)(Hlo, Hhi);
+}
+
+#endif
 
 #if TX_DISP_MAXMIP_CURVED || TX_DISP_MAXMIP_TRAPEZOID
 /* Maxmip on spheres, cylinders (TX_DISP_MAXMIP_CURVED) and trapezoids
@@ -669,18 +737,6 @@ inline float3 disp_piece_xyh(const DispFrame* f, const DispPiece* pc, float t)
     float X = pc->xm + pc->kx * tx_atan2(pc->px * y - pc->py * x, pc->px * x + pc->py * y);
     if (f->shape == DISP_SPHERE) return (float3)(X, tx_atan2(rho, z) * pc->ky + 0.5f, tx_hypot(rho, z) - f->radius);
     return (float3)(X, pc->ky + pc->kz * z, rho - f->radius);
-}
-
-/* The bilinear patch of a texel cell's corners c at fractions (ax, ay) (disp_height's). */
-inline float disp_bilerp(float4 c, float ax, float ay)
-{
-    return (c.x * (1.0f - ax) + c.y * ax) * (1.0f - ay) + (c.z * (1.0f - ax) + c.w * ax) * ay;
-}
-
-/* Level-0 cell index of the coordinate x, clamped to [0, n - 1] (NaN -> 0). */
-inline int disp_cell_index(float x, int n)
-{
-    return x >= 1.0f ? TX_MIN((int)TX_MIN(x, (float)(n - 1)), n - 1) : 0;
 }
 
 /* H at (X, Y) (disp_height's interpolant, from X, Y directly). */
@@ -786,16 +842,10 @@ inline int disp_bisected(uint shape)
 inline int disp_maxmip_bisect(__global const ushort* hts, __global const Displaced* d, const DispFrame* f,
                               float A, float B, int any, int from_outside, float* t_hit, float2* uv_hit)
 {
-    int levels = TX_MIN((int)d->levels, TX_DISP_MAX_LEVELS);
-    if (levels < 1 || f->w < 1 || f->h < 1) return 0;
     uint off[TX_DISP_MAX_LEVELS];
-    int cw[TX_DISP_MAX_LEVELS];
-    off[0] = d->moff; cw[0] = f->w + 1;
-    int ch0 = f->h + 1, chl = ch0;
-    for (int l = 1; l < levels; ++l) {
-        off[l] = off[l - 1] + 2u * (uint)(cw[l - 1] * chl);
-        cw[l] = (cw[l - 1] + 1) / 2; chl = (chl + 1) / 2;
-    }
+    int cw[TX_DISP_MAX_LEVELS], ch[TX_DISP_MAX_LEVELS];
+    int levels = disp_pyramid(d, f, off, cw, ch);
+    if (!levels) return 0;
     float W = (float)f->w, Hf = (float)f->h;
     float s[6];
     int ns = disp_bisect_cuts(f, A, B, s);
@@ -826,27 +876,9 @@ inline int disp_maxmip_bisect(__global const ushort* hts, __global const Displac
             float xlo = TX_MIN(ea.x, eb.x) - epsx, xhi = TX_MAX(ea.x, eb.x) + epsx;
             float ylo = TX_MIN(ea.y, eb.y) - epsy, yhi = TX_MAX(ea.y, eb.y) + epsy;
             float hlo = TX_MIN(ea.z, eb.z) - f->delta, hhi = TX_MAX(ea.z, eb.z) + f->delta;
-            int cx0 = disp_cell_index(xlo, cw[0]), cx1 = disp_cell_index(xhi, cw[0]);
-            int cy0 = disp_cell_index(ylo, ch0), cy1 = disp_cell_index(yhi, ch0);
-            int L = 0;
-            float Hlo = INFINITY, Hhi = -INFINITY;
-            while (L < levels - 1 && ((cx1 >> L) - (cx0 >> L) > 1 || (cy1 >> L) - (cy0 >> L) > 1)) ++L;
-            for (int iy = cy0 >> L; iy <= cy1 >> L; ++iy)
-                for (int ix = cx0 >> L; ix <= cx1 >> L; ++ix) {
-                    if (L == 0) {                        /* the patch over the rectangle's part in the cell */
-                        float4 c = disp_cell_corners(hts, f, ix, iy);
-                        float ax0 = clamp(xlo - (float)ix, 0.0f, 1.0f), ax1 = clamp(xhi - (float)ix, 0.0f, 1.0f);
-                        float ay0 = clamp(ylo - (float)iy, 0.0f, 1.0f), ay1 = clamp(yhi - (float)iy, 0.0f, 1.0f);
-                        float b00 = disp_bilerp(c, ax0, ay0), b10 = disp_bilerp(c, ax1, ay0);
-                        float b01 = disp_bilerp(c, ax0, ay1), b11 = disp_bilerp(c, ax1, ay1);
-                        Hlo = TX_MIN(Hlo, TX_MIN(TX_MIN(b00, b10), TX_MIN(b01, b11)));
-                        Hhi = TX_MAX(Hhi, TX_MAX(TX_MAX(b00, b10), TX_MAX(b01, b11)));
-                    } else {
-                        float2 mm = f->hmin
-                                  + convert_float2(vload2(0, hts + off[L] + 2u * (uint)(iy * cw[L] + ix))) * f->hstep;
-                        Hlo = TX_MIN(Hlo, mm.x); Hhi = TX_MAX(Hhi, mm.y);
-                    }
-                }
+            int L;
+            float2 Hb = disp_rect_bound(hts, f, off, cw, ch[0], levels, xlo, xhi, ylo, yhi, &L);
+            float Hlo = Hb.x, Hhi = Hb.y;
             int next = 1;                                /* go on to the next interval (else: halve this one) */
             if (hlo > Hhi || hhi < Hlo) {                /* no root: the interval's side is known */
                 int below = hhi < Hlo;
@@ -918,6 +950,227 @@ inline int disp_maxmip_bisect(__global const ushort* hts, __global const Displac
 }
 #endif
 
+#if TX_DISP_MESH && TX_DISP_MAXMIP_MESH
+/* Maxmip on a mesh triangle's shell (TX_DISP_MAXMIP_MESH; header comment), in the spirit of
+ * Thonat et al. 2021, "Tessellation-free displacement mapping for ray tracing": along a ray
+ * (b1, b2, h) are not monotone in t (the shell's map P(b) + h N(b) is not affine where the
+ * vertex normals differ), so neither disp_maxmip's cell walk nor the bisection's end-point
+ * bounds apply. Instead the triangle's barycentric domain is subdivided, 4 to 1 (corners
+ * and edge midpoints; a sub-triangle (o, k) has corners o, o + (1/k, 0), o + (0, 1/k), the
+ * middle one k < 0, all dyadic: exact), and each sub-triangle's prism
+ * {P(b) + h N(b): b in it, h in [lo, hi]} holds the surface over it when [lo, hi] bounds H
+ * over its uv footprint: the rectangle of its corners' uv (affine in b), widened by the
+ * host's band (texray.compile.shells.BAND) and a rounding bound, read by disp_rect_bound
+ * (the pyramid, or at level 0 the bilinear patches), intersected with its parent's bound
+ * (a rectangle that leaves [0, 1]^2 after the wrap, a mirror period or one across a repeat
+ * seam, keeps the parent's). A sub-prism lies in the convex hull of its six corners
+ * P_i + lo N_i, P_i + hi N_i (P + h N is a convex combination of them), so a ray that misses
+ * the hull's slabs along the face normal and the three in-plane normals of the edges
+ * (DispKdop: every sub-triangle's edges are parallel to the triangle's, so the directions
+ * and the ray's projections are set up once per ray; the slabs widened by delta) cannot
+ * meet the surface over it: conservative, a spike is never skipped. Nodes are visited
+ * front to back (children sorted by their slab entry, a stack of at most
+ * TX_DISP_MESH_STACK entries, depth at most TX_DISP_MESH_DEPTH), skipping those entered
+ * beyond the nearest hit found; a sub-triangle whose uv footprint spans at most
+ * TX_DISP_MESH_LEAF texel (the footprint scales with 1/|k|) is a leaf: its prism is clipped
+ * exactly (disp_tri_clip on its corners and [lo, hi]: its ends lie on the prism's faces up
+ * to rounding, within the band of the triangle's edges, where f is evaluated), on the
+ * ray's (tmin, tmax), not the shell's (A, B): a leaf's top or bottom can lie within
+ * rounding of the shell's (a flat-topped map: slo = shi), and its crossings at A or B
+ * would fall outside the open interval (tests/render/test_mesh_maxmip.py, the torus).
+ * The search (disp_search) runs on that segment with TX_DISP_MESH_STEPS steps and
+ * TX_DISP_MESH_REFINE bisections, then its secant step (4 steps and 4 bisections: t
+ * within 5e-7 of the quad's exact maxmip on 99% of the rays; the leaves' share of the
+ * frame is small, mesh_terrain.toml measured 2% faster at 1 step, 10 bisections cost
+ * 5% more). Nearest hit: the least over the leaves; any hit: the first that counts (the
+ * shell's from_outside, as the search).
+ *
+ * What is exact and what is not: no part of the ray where the surface can be is skipped
+ * (the slabs and the exact clip are conservative up to the delta widening; a root where
+ * the ray crosses from one leaf to another is in both leaves' segments but, within
+ * rounding of their common face, may be seen by neither: the search's shells have the
+ * same limit). Within a leaf (at most TX_DISP_MESH_LEAF texel wide, so f is close to the
+ * quadratic of a texel cell: at most two roots per cell it crosses) a root is found when f
+ * changes sign between two of the search's samples: a ray that dips below the surface and
+ * out again between two samples, 1/TX_DISP_MESH_STEPS of a leaf apart, is missed (a
+ * near-tangent ray; disp_maxmip_bisect's 1/64 texel). A leaf that holds two roots reports the
+ * first after the first sample's side (as the search). Measured against the float64 root
+ * and the quad's maxmip: tests/render/test_mesh_maxmip.py. Every loop is bounded: nodes at most
+ * TX_DISP_MESH_NODES per shell (reached: the nearest hit found so far, or a miss), the
+ * search's samples and bisections. NaN input: every slab test fails (a miss). */
+#define TX_DISP_MESH_DEPTH 16                          /* subdivision levels below the triangle */
+#define TX_DISP_MESH_STACK (3 * TX_DISP_MESH_DEPTH + 1) /* 3 siblings waiting per level, 4 at the last */
+#define TX_DISP_MESH_LEAF 0.5f                         /* a leaf's uv footprint in texels (X and Y) */
+#define TX_DISP_MESH_STEPS 4u                          /* the search's steps in a leaf's segment */
+#define TX_DISP_MESH_REFINE 4u                         /* and its bisections */
+#define TX_DISP_MESH_NODES 4096                        /* nodes visited per shell */
+
+/* A sub-triangle (o, k) (corners o, o + (1/k, 0), o + (0, 1/k); |k| = 2^depth, k < 0 the
+ * flipped middle children) with its h bound [lo, hi] and the ray's entry t into its hull. */
+typedef struct {
+    float2 o;
+    float k, lo, hi, t;
+} DispSubTri;
+
+/* The four slab directions of the sub-prisms' hulls (the face normal E1 x E2 and its
+ * cross products with the edges E1, E2, E2 - E1, unnormalized; lanes x, y, z, w): the
+ * projections of E1, E2, N0, dN1, dN2 and of the ray's origin, the reciprocals of the
+ * direction's, and each slab's widening delta |d|. */
+typedef struct {
+    float4 pe0, pe1, pn, pn1, pn2, ro, ird, w;
+} DispKdop;
+
+inline DispKdop disp_kdop(const DispFrame* f)
+{
+    float3 d[4] = { f->c0, cross3(f->c0, f->e0), cross3(f->c0, f->e1), cross3(f->c0, f->e1 - f->e0) };
+    float x[8][4];
+    for (int i = 0; i < 4; ++i) {
+        x[0][i] = dot3(f->e0, d[i]); x[1][i] = dot3(f->e1, d[i]);
+        x[2][i] = dot3(f->n, d[i]); x[3][i] = dot3(f->dn1, d[i]); x[4][i] = dot3(f->dn2, d[i]);
+        x[5][i] = dot3(f->q0, d[i]); x[6][i] = 1.0f / dot3(f->dir, d[i]);
+        x[7][i] = f->delta * sqrt(dot3(d[i], d[i]));
+    }
+    DispKdop K;
+    K.pe0 = vload4(0, x[0]); K.pe1 = vload4(0, x[1]); K.pn = vload4(0, x[2]); K.pn1 = vload4(0, x[3]);
+    K.pn2 = vload4(0, x[4]); K.ro = vload4(0, x[5]); K.ird = vload4(0, x[6]); K.w = vload4(0, x[7]);
+    return K;
+}
+
+/* [*tn, *tf] clipped to the slabs [mn, mx] (widened by K->w) of K's directions; 0 if
+ * empty. Distances by the reciprocal: a direction with a zero projection gives infinite
+ * ones, so its slab bounds nothing while the origin lies strictly inside it and empties
+ * the interval otherwise; an origin exactly on such a slab's plane gives NaN (0 inf),
+ * which empties it too (a miss), as does any NaN input. */
+inline int disp_kdop_clip(const DispKdop* K, float4 mn, float4 mx, float* tn, float* tf)
+{
+    float4 t0 = (mn - K->w - K->ro) * K->ird, t1 = (mx + K->w - K->ro) * K->ird;
+    float4 a = TX_MIN(t0, t1), b = TX_MAX(t0, t1);
+    *tn = TX_MAX(TX_MAX(*tn, TX_MAX(a.x, a.y)), TX_MAX(a.z, a.w));
+    *tf = TX_MIN(TX_MIN(*tf, TX_MIN(b.x, b.y)), TX_MIN(b.z, b.w));
+    return *tn <= *tf;
+}
+
+/* Tightens s's [lo, hi] (its parent's) to the height field's bound over its uv footprint
+ * (disp_maxmip_mesh's comment); spread: the band's widening in uv. */
+inline void disp_sub_bound(__global const ushort* hts, const DispFrame* f, const uint* off, const int* cw, int ch0,
+                           int levels, float2 spread, DispSubTri* s)
+{
+    float inv = 1.0f / s->k;
+    float2 u0 = disp_tri_uv(f, s->o), u1 = u0 + inv * f->t1, u2 = u0 + inv * f->t2;
+    float2 lo = TX_MIN(u0, TX_MIN(u1, u2)) - spread, hi = TX_MAX(u0, TX_MAX(u1, u2)) + spread;
+    if (f->mode == TX_WRAP_REPEAT) {
+        float2 p = (float2)(floor(lo.x), floor(lo.y));
+        lo -= p; hi -= p;
+    } else if (f->mode == TX_WRAP_CLAMP) {
+        lo = clamp(lo, 0.0f, 1.0f); hi = clamp(hi, 0.0f, 1.0f);
+    }
+    if (!(lo.x >= 0.0f && lo.y >= 0.0f && hi.x <= 1.0f && hi.y <= 1.0f)) return;
+    float W = (float)f->w, Hf = (float)f->h;
+    float epsx = 1.52587890625e-05f * (W + 2.0f), epsy = 1.52587890625e-05f * (Hf + 2.0f);   /* as the bisection's */
+    int L;
+    float2 b = disp_rect_bound(hts, f, off, cw, ch0, levels, lo.x * W + 0.5f - epsx, hi.x * W + 0.5f + epsx,
+                               (1.0f - hi.y) * Hf + 0.5f - epsy, (1.0f - lo.y) * Hf + 0.5f + epsy, &L);
+    s->lo = TX_MAX(s->lo, b.x); s->hi = TX_MIN(s->hi, b.y);
+}
+
+/* Positions (relative to P0) and normals of the sub-triangle s's corners. */
+inline void disp_sub_corners(const DispFrame* f, const DispSubTri* s, float3* c, float3* nv)
+{
+    float inv = 1.0f / s->k;
+    float2 b[3] = { s->o, s->o + (float2)(inv, 0.0f), s->o + (float2)(0.0f, inv) };
+    for (int j = 0; j < 3; ++j) {
+        c[j] = b[j].x * f->e0 + b[j].y * f->e1;
+        nv[j] = f->n + b[j].x * f->dn1 + b[j].y * f->dn2;
+    }
+}
+
+inline int disp_maxmip_mesh(__global const ushort* hts, __global const Displaced* d, const DispFrame* f, float tmin,
+                            float tmax, float A, float B, int any, int from_outside, float* t_hit, float2* uv_hit)
+{
+    uint off[TX_DISP_MAX_LEVELS];
+    int cw[TX_DISP_MAX_LEVELS], ch[TX_DISP_MAX_LEVELS];
+    int levels = disp_pyramid(d, f, off, cw, ch);
+    if (!levels) return 0;
+    DispKdop K = disp_kdop(f);
+    float2 spread = TX_DISP_TRI_BAND * (fabs(f->t1) + fabs(f->t2));
+    /* the triangle's uv footprint in texels; a sub-triangle's is this over |k| */
+    float2 ext = TX_MAX(fabs(f->t1), TX_MAX(fabs(f->t2), fabs(f->t2 - f->t1)));
+    float span = TX_MAX(ext.x * (float)f->w, ext.y * (float)f->h);
+    DispSubTri stack[TX_DISP_MESH_STACK];
+    stack[0].o = (float2)(0.0f); stack[0].k = 1.0f;
+    stack[0].lo = f->slo; stack[0].hi = f->shi; stack[0].t = A;
+    int sp = 1, found = 0;
+    float best = B;
+    float2 best_uv = (float2)(0.0f);
+    for (int it = 0; it < TX_DISP_MESH_NODES && sp > 0; ++it) {
+        DispSubTri s = stack[--sp];
+        if (!(s.t <= best)) continue;                     /* entered beyond the nearest hit */
+        float size = fabs(s.k);
+        if (span <= TX_DISP_MESH_LEAF * size || size >= (float)(1 << TX_DISP_MESH_DEPTH)) {
+            float a = A, b = B, th;
+            float2 uvh;
+            if (s.k != 1.0f) {                            /* the root's segment is [A, B] already */
+                float3 c[3], nv[3];
+                int outside;
+                disp_sub_corners(f, &s, c, nv);
+                if (!disp_tri_clip(d, f, c, nv, s.o, s.k, s.lo, s.hi, tmin, tmax, &a, &b, &outside)) continue;
+            }
+            if (disp_search(hts, f, a, b, TX_DISP_MESH_STEPS, TX_DISP_MESH_REFINE, any, from_outside, &th, &uvh)
+                && th <= best) {
+                if (any) { *t_hit = th; *uv_hit = uvh; return 1; }
+                best = th; best_uv = uvh; found = 1;
+            }
+            continue;
+        }
+        /* The four children, nearest entry last on the stack: their corners are the node's
+         * and its edges' midpoints (pb; child j's are pb[tri[j][.]]), projected once. Each
+         * child is first clipped to its hull under the node's [lo, hi] (a wider hull: a
+         * child the ray passes by costs no bound), then to the face normal's slab under
+         * its own. */
+        float inv = 1.0f / s.k, mid = 0.5f * inv;
+        float2 pb[6] = { s.o, s.o + (float2)(inv, 0.0f), s.o + (float2)(0.0f, inv), s.o + (float2)(mid, 0.0f),
+                         s.o + (float2)(0.0f, mid), s.o + (float2)(mid, mid) };
+        float4 P[6], N[6], plo[6], phi[6];
+        for (int i = 0; i < 6; ++i) {
+            P[i] = pb[i].x * K.pe0 + pb[i].y * K.pe1;
+            N[i] = K.pn + pb[i].x * K.pn1 + pb[i].y * K.pn2;
+            float4 a = P[i] + s.lo * N[i], c = P[i] + s.hi * N[i];
+            plo[i] = TX_MIN(a, c); phi[i] = TX_MAX(a, c);
+        }
+        const int tri[4][3] = { { 0, 3, 4 }, { 3, 1, 5 }, { 4, 5, 2 }, { 5, 4, 3 } };
+        DispSubTri kid[4];
+        int n = 0;
+        for (int j = 0; j < 4; ++j) {
+            int i0 = tri[j][0], i1 = tri[j][1], i2 = tri[j][2];
+            float tn = A, tf = best;
+            if (!disp_kdop_clip(&K, TX_MIN(plo[i0], TX_MIN(plo[i1], plo[i2])), TX_MAX(phi[i0], TX_MAX(phi[i1], phi[i2])),
+                                &tn, &tf))
+                continue;
+            DispSubTri q;
+            q.o = pb[i0];
+            q.k = j == 3 ? -2.0f * s.k : 2.0f * s.k;
+            q.lo = s.lo; q.hi = s.hi;
+            disp_sub_bound(hts, f, off, cw, ch[0], levels, spread, &q);
+            float4 mn = (float4)(INFINITY), mx = (float4)(-INFINITY);
+            for (int m = 0; m < 3; ++m) {
+                int i = tri[j][m];
+                float a = P[i].x + q.lo * N[i].x, c = P[i].x + q.hi * N[i].x;
+                mn.x = TX_MIN(mn.x, TX_MIN(a, c)); mx.x = TX_MAX(mx.x, TX_MAX(a, c));
+            }
+            mn.yzw = (float3)(-INFINITY); mx.yzw = (float3)(INFINITY);
+            if (!disp_kdop_clip(&K, mn, mx, &tn, &tf)) continue;
+            q.t = tn;
+            int m = n++;
+            for (; m > 0 && kid[m - 1].t < tn; --m) kid[m] = kid[m - 1];
+            kid[m] = q;
+        }
+        for (int j = 0; j < n && sp < TX_DISP_MESH_STACK; ++j) stack[sp++] = kid[j];
+    }
+    if (found) { *t_hit = best; *uv_hit = best_uv; }
+    return found;
+}
+#endif
+
 /* Nearest (any = 0) or any (any = 1) hit of the displaced surface with t in (tmin,
  * tmax); *uv = the primitive's (u, v) at the hit. NaN input and degenerate frames
  * give a miss (every range test is false for NaN). */
@@ -929,7 +1182,9 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
     int from_outside, boxed = 0;
 #if TX_DISP_MESH
     if (f.shape == DISP_TRIANGLE) {
-        int clip = disp_tri_clip(d, &f, tmin, tmax, &A, &B, &from_outside);
+        float3 c[3] = { (float3)(0.0f), f.e0, f.e1 };
+        float3 nv[3] = { f.n, f.n + f.dn1, f.n + f.dn2 };
+        int clip = disp_tri_clip(d, &f, c, nv, (float2)(0.0f), 1.0f, f.slo, f.shi, tmin, tmax, &A, &B, &from_outside);
         if (!clip) return 0;
         boxed = clip == 2;
     } else
@@ -943,6 +1198,11 @@ inline int displaced_intersect(__global const Displaced* d, __global const ushor
     if ((method & 3u) == DISP_MAXMIP && f.shape == DISP_QUAD) {
         hit = disp_maxmip(hts, d, &f, A, B, any, from_outside, t, uv);
     }
+#if TX_DISP_MESH && TX_DISP_MAXMIP_MESH
+    else if ((method & 3u) == DISP_MAXMIP && f.shape == DISP_TRIANGLE) {
+        hit = disp_maxmip_mesh(hts, d, &f, tmin, tmax, A, B, any, from_outside, t, uv);
+    }
+#endif
 #if TX_DISP_MAXMIP_CURVED || TX_DISP_MAXMIP_TRAPEZOID
     else if ((method & 3u) == DISP_MAXMIP && disp_bisected(f.shape)) {
         hit = disp_maxmip_bisect(hts, d, &f, A, B, any, from_outside, t, uv);

@@ -71,6 +71,10 @@ def _all_kinds_scene():
     at("displaced sphere maxmip", layout.PRIM_DISPLACED, 8.0)
     s.add(tx.Cylinder(radius=0.6, z_range=(-0.6, 0.6), origin=(10, 0, 0), material=disp("maxmip")))
     at("displaced cylinder maxmip", layout.PRIM_DISPLACED, 10.0)
+    for x, method in ((12.0, "search"), (14.0, "maxmip")):        # a mesh's prism shells (DISP_TRIANGLE)
+        s.add(tx.Mesh(np.array(_shifted(CORNERS, x)), np.array([[0, 1, 2], [0, 2, 3]]),
+                      uvs=np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]), material=disp(method), name=f"mesh {method}"))
+        at(f"displaced mesh {method}", layout.PRIM_DISPLACED, x)
     return s, kinds
 
 

@@ -126,9 +126,6 @@ def test_mixed_materials_and_errors(rng):
     assert len(cs.tri_verts) == len(t.faces)
     with pytest.raises(tx.SceneError, match="nouv: uvs: displacement reads the height texture"):
         tessellate_mesh(tx.Mesh(QUAD, np.array([[0, 1, 2]]), material=bumpy, name="nouv"))
-    with pytest.raises(tx.SceneError, match="s: material.displacement: method='maxmip' does not apply"):
-        tx.Mesh(QUAD, np.array([[0, 1, 2]]), uvs=QUAD_UV, name="s",
-                material=tx.Material(displacement=_displacement(rng, method="maxmip")))
     inst = tx.Instance(tx.Mesh(QUAD, np.array([[0, 1, 2]]), uvs=QUAD_UV, material=bumpy, name="src"),
                        tx.Transform(translate=(0, 0, 1)))
     with pytest.raises(tx.SceneError, match="an instanced mesh is not displaced"):
@@ -162,13 +159,14 @@ def test_a_displaced_uv_sphere_mesh_matches_the_displaced_sphere(rng, device):
 
 
 def test_the_bench_sweeps_a_displaced_mesh_by_its_tessellation():
-    """A scene with a displaced triangle mesh gets the tessellation series and the search's
-    (tests/render/test_mesh_search.py), no maxmip; a quad scene keeps every method."""
+    """A scene with a displaced triangle mesh gets the tessellation series, the search's
+    (tests/render/test_mesh_search.py) and maxmip's (tests/render/test_mesh_maxmip.py); a quad
+    scene keeps every method."""
     from texray.bench import sweep
     from texray.bench.suite import suite_paths
     mesh = tx.Scene.load(suite_paths(["mesh_terrain"])["mesh_terrain"])
     quad = tx.Scene.load(suite_paths(["terrain"])["terrain"])
     series = dict(sweep.displacement_series(mesh))
     assert [kw["resolution"] for _, kw in series["tessellate"]] == list(sweep.DISP_TESSELLATIONS)
-    assert "maxmip" not in series and "search M=8" in series
+    assert "maxmip" in series and "search M=8" in series
     assert {n for n, _ in sweep.displacement_series(quad)} >= {"search M=0", "maxmip", "tessellate"}

@@ -9,7 +9,8 @@ What each test guards against:
   with varying vertex normals (N interpolated, not renormalized);
 * rays at the shared edges and vertices of a closed mesh: no hole between shells;
 * a grazing light: shadow rays search the same shells (self-shadowing) as the quad's;
-* AOVs, the bench sweep, and what is refused or handled conservatively.
+* AOVs, the bench sweep, and what is refused or handled conservatively
+(method="maxmip" on the same shells: tests/render/test_mesh_maxmip.py).
 """
 import warnings
 from pathlib import Path
@@ -198,16 +199,17 @@ def test_aovs_report_the_displaced_hit(device):
 
 
 def test_the_bench_sweeps_the_search_on_a_mesh_against_its_tessellation():
-    """texray bench --sweep mesh_terrain: the search's N x M series, the adaptive search and
-    the tessellation; no maxmip (quads only). The shells take less device memory than the
-    tessellation at 1 vertex per texel."""
+    """texray bench --sweep mesh_terrain: the search's N x M series, the adaptive search,
+    maxmip (tests/render/test_mesh_maxmip.py) and the tessellation. The shells take less
+    device memory than the tessellation at 1 vertex per texel."""
     from texray.bench import sweep
     from texray.bench.suite import suite_paths
     mesh = tx.Scene.load(suite_paths(["mesh_terrain"])["mesh_terrain"])
-    assert sweep.search_applies(mesh) and not sweep.maxmip_applies(mesh)
+    assert sweep.search_applies(mesh) and sweep.maxmip_applies(mesh)
     series = dict(sweep.displacement_series(mesh))
-    assert {"search M=0", "search M=8", "search adaptive M=8", "tessellate"} <= set(series)
-    assert "maxmip" not in series
+    assert {"search M=0", "search M=8", "search adaptive M=8", "maxmip", "tessellate"} <= set(series)
+    mm = compile_scene(sweep.with_displacement(mesh, "maxmip"))
+    assert len(mm.displaced) == 128 and mm.features.displaced_mesh_maxmip
     search = compile_scene(sweep.with_displacement(mesh, "search", steps=32, refine=8))
     tess = compile_scene(sweep.with_displacement(mesh, "tessellate", resolution=1))
     assert len(search.displaced) == 128 and search.features.displaced_meshes
@@ -216,10 +218,6 @@ def test_the_bench_sweeps_the_search_on_a_mesh_against_its_tessellation():
 
 def test_refusals_and_conservative_fallbacks(rng):
     d = tx.Displacement(tx.Texture(rng.random((8, 8)).astype(np.float32)[..., None], name="h"), scale=0.1)
-    with pytest.raises(tx.SceneError, match=r"mm: material\.displacement: method='maxmip' does not apply to a "
-                                            r"triangle mesh .*use method='search' \(per pixel\) or 'tessellate'"):
-        tx.Mesh(P, TWO, uvs=UV, name="mm", material=tx.Material(displacement=tx.Displacement(d.texture,
-                                                                                          method="maxmip")))
     with pytest.raises(tx.SceneError, match="nouv: uvs: displacement reads the height texture"):
         compile_scene(_scene(tx.Mesh(P, TWO, material=tx.Material(displacement=d), name="nouv")))
     nan = rng.random((8, 8)).astype(np.float32)

@@ -121,7 +121,8 @@ def _displaced(items, shells, mats):
         return rec, None, (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32))
     heights, index = pack_heights([o.material.displacement for _, o in items]
                                   + [m.displacement for _, s in shells for m in s.mesh.materials
-                                     if m.displacement is not None and m.displacement.method == "search"])
+                                     if m.displacement is not None
+                                     and m.displacement.method in mesh_shells.SHELL_METHODS])
     lo, hi = np.zeros((len(items), 3)), np.zeros((len(items), 3))
     for i, (obj_id, o) in enumerate(items):
         d, r = o.material.displacement, rec[i]
@@ -158,7 +159,7 @@ def _maxmip_on(disp, *shapes) -> bool:
 def _sorted_objects(scene):
     """{shape class: [(obj_id, shape)]} of what the BVH holds directly (tessellated shapes
     as meshes), the [(obj_id, shape)] displaced on the device and the [(obj_id,
-    texray.compile.shells.Shells)] of meshes displaced by the search."""
+    texray.compile.shells.Shells)] of meshes displaced per pixel (search or maxmip)."""
     by_kind = {cls: [] for cls, _ in _KINDS}
     by_kind[Instance] = []
     displaced, shells = [], []
@@ -171,13 +172,14 @@ def _sorted_objects(scene):
             by_kind[Instance].append((obj_id, obj))
         elif isinstance(obj, Mesh):
             methods = {m.displacement.method for m in obj.materials if m.displacement is not None}
-            if methods == {"search"}:
+            if methods and methods <= set(mesh_shells.SHELL_METHODS):
                 try:
                     s = mesh_shells.prepare(obj)
                 except mesh_shells.NotABound as e:
-                    warnings.warn(f"{e}: method='search' would miss parts of the surface; tessellated instead",
+                    method = "' or '".join(sorted(methods))
+                    warnings.warn(f"{e}: method='{method}' would miss parts of the surface; tessellated instead",
                                   stacklevel=4)
-                    by_kind[Mesh].append((obj_id, tessellate_mesh(obj, methods=("search",))))
+                    by_kind[Mesh].append((obj_id, tessellate_mesh(obj, methods=tuple(methods))))
                     continue
                 shells.append((obj_id, s))
                 plain = _plain_faces(obj)
@@ -186,7 +188,7 @@ def _sorted_objects(scene):
                 continue
             if methods - {"tessellate"}:        # Mesh validation refuses these; changed since
                 raise SceneError(f"{obj.name}: material.displacement: a triangle mesh is displaced by "
-                                 f"method='search' or 'tessellate', one of them for all its materials; got "
+                                 f"method='search', 'maxmip' or 'tessellate', one of them for all its materials; got "
                                  f"{', '.join(sorted(methods))}")
             by_kind[Mesh].append((obj_id, tessellate_mesh(obj) if methods else obj))
         elif d is None:
@@ -301,6 +303,7 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
                         displacement=len(disp) > 0, displaced_meshes=bool(shells),
                         displaced_curved_maxmip=_maxmip_on(disp, layout.DISP_SPHERE, layout.DISP_CYLINDER),
                         displaced_trapezoid_maxmip=_maxmip_on(disp, layout.DISP_TRAPEZOID),
+                        displaced_mesh_maxmip=_maxmip_on(disp, layout.DISP_TRIANGLE),
                         instances=instances is not None,
                         stack_size=stack_size_for(wide.stack_depth(wide_depth)),
                         max_lights=max_lights_for(len(scene.lights)))

@@ -1,6 +1,8 @@
-"""Prism shells of displaced triangle meshes (``Displacement(method="search")`` on a Mesh):
-one layout.DISPLACED record of shape DISP_TRIANGLE per displaced triangle, searched per
-pixel on the device (kernels/geometry/displace.h, header comment).
+"""Prism shells of displaced triangle meshes (``Displacement(method="search")`` or
+``"maxmip"`` on a Mesh): one layout.DISPLACED record of shape DISP_TRIANGLE per displaced
+triangle, searched or traversed per pixel on the device (kernels/geometry/displace.h,
+header comment; maxmip subdivides the shell on the device, disp_maxmip_mesh, reading the
+same min-max pyramid).
 
 The displaced surface of a triangle is S(b) = P(b) + H(uv(b)) N(b), P, N and uv
 interpolated linearly from the corners (N from the unit vertex normals, not
@@ -33,6 +35,8 @@ from ..scene.mesh import warn_degenerate
 from .heights import METHOD_ADAPTIVE, METHOD_IDS, height_key, minmax_pyramid, quantize
 from .tessellate_mesh import check_displaceable, unit_rows, vertex_normals
 
+# The per-pixel methods that displace a mesh through its shells.
+SHELL_METHODS = ("search", "maxmip")
 # The kernels' TX_DISP_TRI_BAND: how far beyond its edges (in barycentrics) a triangle's
 # surface is still evaluated; each footprint is widened by as much.
 BAND = 2.0 ** -12
@@ -62,8 +66,9 @@ class Shells:
 
 
 def searched_faces(mesh):
-    """Boolean (F,) mask of the faces whose material is displaced by the search."""
-    search = np.array([m.displacement is not None and m.displacement.method == "search" for m in mesh.materials])
+    """Boolean (F,) mask of the faces whose material is displaced per pixel (SHELL_METHODS)."""
+    search = np.array([m.displacement is not None and m.displacement.method in SHELL_METHODS
+                       for m in mesh.materials])
     return search[mesh.face_materials()]
 
 

@@ -48,7 +48,7 @@ def tessellate_mesh(mesh, resolution=None, methods=("tessellate",)) -> Mesh:
     docstring); faces whose material is not displaced (by one of ``methods``) are kept as
     they are (level 1 unless a displaced neighbour refines their shared edge).
     ``resolution``: the cuts per texel, instead of each Displacement's own. ``methods``:
-    ("search",) tessellates a mesh whose search shells would not bound its surface
+    ("search",) or ("maxmip",) tessellates a mesh whose shells would not bound its surface
     (texray.compile.shells)."""
     where = f"{mesh.name}: "
     check_displaceable(mesh)

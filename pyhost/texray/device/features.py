@@ -38,6 +38,7 @@ class Features:
     displaced_meshes: bool = False # some triangle mesh is displaced on the device (prism shells, DISP_TRIANGLE)
     displaced_curved_maxmip: bool = False  # some sphere or cylinder is displaced by maxmip (disp_maxmip_bisect)
     displaced_trapezoid_maxmip: bool = False  # some trapezoid (convex quad, no parallelogram) by maxmip (the same)
+    displaced_mesh_maxmip: bool = False  # some triangle mesh's shells by maxmip (disp_maxmip_mesh)
     instances: bool = False        # some mesh is instanced (two-level BVH: kernels/accel/instance.h)
     adaptive: bool = False         # the fused kernel samples listed pixels and sums Y^2 (texray.renderer.adaptive)
     one_light: bool = False        # each sample takes one of the >= 2 lights (render(light_sampling="one"))
@@ -174,6 +175,7 @@ def compile_options(f: Features, device_kind: str | None = None,
         "TX_DISP_MESH": int(f.displaced_meshes),
         "TX_DISP_MAXMIP_CURVED": int(f.displaced_curved_maxmip),
         "TX_DISP_MAXMIP_TRAPEZOID": int(f.displaced_trapezoid_maxmip),
+        "TX_DISP_MAXMIP_MESH": int(f.displaced_mesh_maxmip),
         "TX_INSTANCES": int(f.instances),
         "TX_STACK_SIZE": int(f.stack_size),
         "TX_MAX_LIGHTS": int(f.max_lights),

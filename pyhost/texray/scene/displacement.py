@@ -31,7 +31,12 @@ Methods (``Displacement.method``):
   against the pyramid (the bilinear patch's exact bound in texel cells), a root
   bracketed by a sign change polished by regula falsi; exact but for a ray that dips
   below the surface and out again within 1/64 texel (kernels/geometry/displace.h
-  disp_maxmip_bisect). Not on meshes.
+  disp_maxmip_bisect). Triangle meshes: each triangle's prism shell (as the search's)
+  is subdivided on the device into sub-prisms over sub-triangles, each bounded by the
+  pyramid over its uv footprint, traversed front to back down to half-texel leaves,
+  whose exact segment is searched (kernels/geometry/displace.h disp_maxmip_mesh):
+  conservative, but a ray that dips below the surface and out again between two of
+  a leaf's 4 samples is missed.
 * ``"tessellate"``: true geometry on the host (:func:`tessellate`), rendered as a
   triangle mesh: the accuracy reference (meshes: texray.compile.tessellate_mesh).
 
@@ -61,8 +66,8 @@ class Displacement:
     outward normal (world units: a texel value of 1 raises it by ``scale``).
 
     method: "search" (linear + binary search, ``steps`` N >= 1 and ``refine`` M >= 0
-    bisections; spheres, cylinders, planar convex quads, triangle meshes), "maxmip" (exact hierarchical
-    traversal; planar convex quads, spheres, cylinders) or "tessellate" (a triangle mesh, ``resolution`` vertices per
+    bisections; spheres, cylinders, planar convex quads, triangle meshes), "maxmip" (hierarchical
+    traversal of a min-max pyramid; planar convex quads, spheres, cylinders, triangle meshes) or "tessellate" (a triangle mesh, ``resolution`` vertices per
     texel and axis). adaptive: N grows with the grazing angle, N / max(|cos|, 1/8)
     (the path through the volume grows as 1/|cos|, so the height step per sample
     stays put up to 8x N).

@@ -127,11 +127,6 @@ class Mesh:
             field_ = "material" if len(mats) == 1 and not isinstance(self.material, (list, tuple)) else f"material[{k}]"
             V.instance(m, Material, field_, where)
             m.validate(f"{where}{field_}.")
-            d = m.displacement
-            if d is not None and d.method == "maxmip":    # texray.compile.tessellate_mesh, .shells
-                raise SceneError(f"{where}{field_}.displacement: method='maxmip' does not apply to a triangle "
-                                 f"mesh (no min-max traversal of its prism shells); use method='search' (per "
-                                 f"pixel) or 'tessellate'")
         methods = {m.displacement.method for m in mats if m.displacement is not None}
         if len(methods) > 1:
             raise SceneError(f"{where}material: a triangle mesh is displaced by one method for all its "
