@@ -256,8 +256,9 @@ def search_applies(scene):
 def displacement_series(scene):
     """The displacement sweep's series, one curve per method: the linear + binary search with N
     varying at each M, the adaptive search, maxmip (where every displaced object is a
-    planar convex quad, a sphere, a cylinder or a mesh: :func:`maxmip_applies`) and the tessellation at 1 and 2 vertices per texel (compared
-    like the others with the reference, a tessellation at DISP_REF_RESOLUTION). A scene
+    planar convex quad, a sphere, a cylinder or a mesh: :func:`maxmip_applies`) and the
+    tessellation at 1 and 2 vertices per texel (compared like the others with the
+    reference, a tessellation at DISP_REF_RESOLUTION). A scene
     where the search does not apply gets the tessellations only (:func:`search_applies`).
     [(series name, [(label, {"method": ..., knobs})])]."""
     tessellate = ("tessellate", [(f"tessellate {r} vertex/texel", {"method": "tessellate", "resolution": r})
