@@ -964,7 +964,7 @@ def _valid_material(ch, L, kind, parallelogram=False, mapped=False, planar_conve
     if kind in ("sphere", "cylinder", "quad") + (() if mapped else ("mesh",)) and ch.boolean(0.25):
         methods = ["tessellate"] + (["search", "maxmip"] if parallelogram or planar_convex or kind != "quad" else [])
         if kind == "mesh":                         # texray.compile.tessellate_mesh, .shells
-            methods = ["tessellate", "search"]
+            methods = ["tessellate", "search", "maxmip"]
         method = ch.choice(methods)
         hkind = ch.choice(["bricks_height", "noise"])
         htex = L.var("height", call("tx.Texture.procedural", hkind, size=ch.choice([8, 16, 32]),
