@@ -7,9 +7,10 @@
  * each stage alone and for the AOV pass. */
 
 /* With TX_ADAPTIVE (adaptive sampling, texray.renderer.adaptive) the work-items take the
- * tile's pixels listed in `active` (n of them) and each also adds the squares of its
- * samples' luminance to sum_y2, the host's variance estimate; otherwise work-item gid
- * takes pixels gid * pixels .. of the tile and both are NULL.
+ * tile's pixels listed in `active` (n of them; work-item gid the entries gid * pixels ..)
+ * and each also adds the squares of its samples' luminance to sum_y2, the host's variance
+ * estimate; otherwise work-item gid takes pixels gid * pixels .. of the tile and both are
+ * NULL.
  *
  * With TX_ONE_LIGHT (render(light_sampling="one")) each sample traces one shadow ray, toward
  * the light light_pick (core/sampler.h) gives it, and weighs that light by the light count;
@@ -20,13 +21,14 @@
 #define TX_CHUNK 1
 #endif
 /* `pixels` (1 to TX_CHUNK): with TX_MULTI_PIXEL, the pixels each work-item takes, pixels
- * gid * pixels .. + pixels - 1 of the tile, so that a launch whose samples per pixel are no
- * multiple of the packet's lanes leaves fewer of them empty (texray.device.features.
- * pixels_per_item; a kernel argument, so that every such spp shares one program): the chunks
- * run over the pixels' samples in order, pixel by pixel. Without it (and with TX_ADAPTIVE) one pixel per work-item, the
- * argument unused: the per-pixel arrays are then single values the compiler keeps in
- * registers (a runtime count of 1 measured 14% slower on the globe at 16 spp). */
-#if TX_MULTI_PIXEL && !TX_ADAPTIVE
+ * gid * pixels .. + pixels - 1 of the tile (with TX_ADAPTIVE those of its entries of the
+ * list), so that a launch whose samples per pixel are no multiple of the packet's lanes
+ * leaves fewer of them empty (texray.device.features.pixels_per_item; a kernel argument, so
+ * that every such spp shares one program): the chunks run over the pixels' samples in
+ * order, pixel by pixel. Without it one pixel per work-item, the argument unused: the
+ * per-pixel arrays are then single values the compiler keeps in registers (a runtime count
+ * of 1 measured 14% slower on the globe at 16 spp). */
+#if TX_MULTI_PIXEL
 #define TX_PIX_MAX TX_CHUNK
 #else
 #define TX_PIX_MAX 1
@@ -38,25 +40,32 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
 {
     uint gid = get_global_id(0);
 #if TX_ADAPTIVE
-    if (gid >= n) return;
-    gid = active[gid];
-    float y2 = 0.0f;
-    uint first = gid;
-    const uint npix = 1u;
+    pixels = clamp(pixels, 1u, (uint)TX_PIX_MAX);
+    if (gid >= (n + (pixels - 1u)) / pixels) return;
+    uint npix = TX_MIN(n - gid * pixels, pixels);
+    uint pixid[TX_PIX_MAX];                       /* the listed pixels' indices in the tile */
+    float y2[TX_PIX_MAX];
+    for (uint q = 0; q < npix; ++q) {
+        pixid[q] = active[gid * pixels + q];
+        y2[q] = 0.0f;
+    }
+#define TX_PIXEL(q) pixid[q]
 #elif TX_PIX_MAX > 1
     pixels = clamp(pixels, 1u, (uint)TX_PIX_MAX);
     if (gid >= (n + (pixels - 1u)) / pixels) return;
     uint first = gid * pixels, npix = TX_MIN(n - first, pixels);
+#define TX_PIXEL(q) (first + (q))
 #else
     if (gid >= n) return;
     uint first = gid;
     const uint npix = 1u;
+#define TX_PIXEL(q) (first + (q))
 #endif
     uint grid_m = cmj_grid_m(spp);
     uint ppx[TX_PIX_MAX], ppy[TX_PIX_MAX], pattern[TX_PIX_MAX];
     float3 sum[TX_PIX_MAX];
     for (uint q = 0; q < npix; ++q) {
-        uint pix = first + q;
+        uint pix = TX_PIXEL(q);
         ppx[q] = pix % image_w; ppy[q] = y0 + pix / image_w;
         pattern[q] = pixel_pattern(image_w, ppx[q], ppy[q], seed);
         sum[q] = (float3)(0.0f);
@@ -152,7 +161,7 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
             HitRec h = bvh_closest(TX_GEOM_ARGS, org, dir, 0.0f, INFINITY);
 #define TX_PRE_GEOM(j) ((const Geom*)0)
 #endif
-            surface_eval(org, dir, h, TX_PRE_GEOM(j), TX_GEOM_ARGS, TX_SURFACE_ARGS, (__global float*)0, first + lp[j],
+            surface_eval(org, dir, h, TX_PRE_GEOM(j), TX_GEOM_ARGS, TX_SURFACE_ARGS, (__global float*)0, TX_PIXEL(lp[j]),
                          s + j);
 #undef TX_PRE_GEOM
             c[j] = background.xyz;
@@ -198,13 +207,15 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
             sum[lp[j]] += cj;
 #if TX_ADAPTIVE
             float y = 0.2126f * cj.x + 0.7152f * cj.y + 0.0722f * cj.z;     /* Rec. 709 luminance */
-            y2 += y * y;
+            y2[lp[j]] += y * y;
 #endif
         }
     }
     for (uint q = 0; q < npix; ++q)
-        accum[first + q] += (float4)(sum[q], (float)nsamples);
+        accum[TX_PIXEL(q)] += (float4)(sum[q], (float)nsamples);
 #if TX_ADAPTIVE
-    sum_y2[gid] += y2;
+    for (uint q = 0; q < npix; ++q)
+        sum_y2[TX_PIXEL(q)] += y2[q];
 #endif
+#undef TX_PIXEL
 }

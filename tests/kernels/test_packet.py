@@ -251,7 +251,7 @@ def test_rendered_images_do_not_depend_on_the_packet_width(device, monkeypatch):
     for w in (0, *WIDTHS):
         monkeypatch.setenv("TEXRAY_PACKET", str(w))
         a = tx.render(scene, 48, 36, 21, device=device, seed=3)
-        b = tx.render(scene, 48, 36, 24, device=device, adaptive=0.05)
+        b = tx.render(scene, 48, 36, 24, device=device, adaptive=0.05)    # rounds 4, 4, 8, 8: 2 pixels per item
         images[w] = (a.rgb, b.rgb, b.stats["samples"])
     for w in WIDTHS:
         assert np.array_equal(images[w][0], images[0][0]), f"width {w}: 21 spp differs"
@@ -297,17 +297,16 @@ def tx_scene(rel):
 def test_packet_rule():
     """Packets where they measured faster: PoCL, shadows on; at any spp, several pixels per
     work-item where one pixel's samples leave lanes empty (pixels_per_item: the fewest packets
-    per pixel, then the fewest pixels), except adaptive sampling's rounds
-    (pixels one by one) below PACKET_MIN_SAMPLES. Intel's runtime: only when forced
-    (TEXRAY_PACKET), for its slow packet builds."""
+    per pixel, then the fewest pixels), adaptive sampling's rounds too (pixels from its
+    list). Intel's runtime: only when forced (TEXRAY_PACKET), for its slow packet builds."""
     from texray.device.features import pixels_per_item
     tri = Features(shadows=True, triangles=True)
     ada = Features(shadows=True, triangles=True, adaptive=True)
     assert [packet_width(tri, "pocl", n) for n in (1, 2, 3, 4, 16)] == [8] * 5
     assert [pixels_per_item(tri, "pocl", n) for n in (1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 16, 20, 24)] == \
         [8, 4, 8, 2, 8, 4, 8, 1, 8, 2, 1, 2, 1]
-    assert [packet_width(ada, "pocl", n) for n in (1, 3, 4, 8)] == [0, 0, 8, 8]
-    assert [pixels_per_item(ada, "pocl", n) for n in (1, 3, 4, 8)] == [1, 1, 1, 1]
+    assert [packet_width(ada, "pocl", n) for n in (1, 3, 4, 8)] == [8, 8, 8, 8]
+    assert [pixels_per_item(ada, "pocl", n) for n in (1, 3, 4, 8)] == [8, 8, 2, 1]
     assert packet_width(tri, "nvidia", 16) == 0 and pixels_per_item(tri, "nvidia", 1) == 1
     assert packet_width(tri, "intel-cpu", 16) == 0 and pixels_per_item(tri, "intel-cpu", 1) == 1
     assert packet_width(tri, None, 16) == 0
@@ -317,8 +316,8 @@ def test_packet_rule():
 
 
 def test_renders_choose_packets_by_samples_per_launch(device, monkeypatch):
-    """render() builds the packet program where the device's rule has packets (any spp;
-    adaptive rounds of 4 samples and up); stats say which."""
+    """render() builds the packet program where the device's rule has packets (any spp,
+    adaptive rounds too); stats say which."""
     from texray.device import runtime
     from texray.renderer.frame import launch_samples
     monkeypatch.delenv("TEXRAY_PACKET", raising=False)
@@ -327,7 +326,7 @@ def test_renders_choose_packets_by_samples_per_launch(device, monkeypatch):
     scene = tx.load_scene(tx_scene("bench/textured_meshes.toml"))
     width = {"pocl": 8}.get(runtime(device).kind, 0)
     assert [tx.render(scene, 16, 12, spp, device=device).stats["packet"] for spp in (1, 4, 16)] == [width] * 3
-    assert tx.render(scene, 16, 12, 3, device=device, adaptive=0.1).stats["packet"] == 0
+    assert tx.render(scene, 16, 12, 3, device=device, adaptive=0.1).stats["packet"] == width
     assert tx.render(scene, 16, 12, 64, device=device, adaptive=0.1).stats["packet"] == width
     assert tx.render(tx.load_scene(tx_scene("bench/globe.toml")), 16, 12, 16, device=device).stats["packet"] == width
     assert tx.render(scene, 16, 12, 16, device=device, shadows=False).stats["packet"] == 0

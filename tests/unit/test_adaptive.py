@@ -40,7 +40,15 @@ def test_stopping_rule_is_relative_with_a_dark_floor_and_dilated():
 
 
 def test_round_sizes():
-    assert [A.round_size(s) for s in (1, 4, 8, 16, 64, 1024)] == [1, 4, 8, 8, 8, 128]
+    assert [A.round_size(s) for s in (1, 4, 8, 16, 64, 1024)] == [1, 4, 4, 4, 8, 128]
+    # then each round as many samples as all before it, up to spp in all
+    assert A.round_sizes(32) == [4, 4, 8, 16]
+    assert A.round_sizes(24) == [4, 4, 8, 8]
+    assert A.round_sizes(1024) == [128, 128, 256, 512]
+    assert A.round_sizes(3) == [3] and A.round_sizes(5) == [4, 1]
+    for spp in range(1, 300):
+        r = A.round_sizes(spp)
+        assert sum(r) == spp and min(r) >= 1 and len(r) <= 8
 
 
 

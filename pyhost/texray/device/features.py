@@ -102,23 +102,24 @@ def max_lights_for(n: int) -> int:
 # kind, where they measured faster: PoCL's CPU device, whose LLVM turns the vector
 # arithmetic into AVX2 or AVX-512 code. 8 lanes measured as fast as 16 at 16 spp and faster
 # at 4 and 8; every scene kind gained at 16 spp (the bench scenes, the showcase, instances:
-# 0.5-0.97 of the scalar frame; README, Performance). A launch summing fewer than
-# PACKET_MIN_SAMPLES samples per pixel fills too few lanes: packets measured slower at 1 and
-# 2 spp. GPUs already spread work-items across SIMD lanes. Intel's CPU runtime does too
+# 0.5-0.97 of the scalar frame; README, Performance). A launch summing fewer samples per
+# pixel than the packet has lanes would fill too few (one pixel's packets measured slower at
+# 1 and 2 spp): several pixels per work-item fill them (pixels_per_item), in adaptive
+# sampling's rounds too. GPUs already spread work-items across SIMD lanes. Intel's CPU runtime does too
 # (16 wide). Its vectorized kernels ran the bench scenes at 1.5-2x the frame time of packets
 # of 8 in work-groups of one (TEXRAY_PACKET=8: texray.device.opencl.PACKET_LOCAL_SIZES), which
 # come within 10% of PoCL's packets, but it builds the packet programs 2-3x slower (a cold
 # build of the showcase's program: 47 s against 14 s; the globe's 4.7 against 2.2), so the
 # packets stay the user's choice there (2026-12-03, this Xeon; README, Performance).
 PACKET_WIDTHS = {"pocl": 8}
-PACKET_MIN_SAMPLES = 4
+PACKET_MIN_SAMPLES = 4        # the samples per launch the rules assume when not told
 
 
 def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES) -> int:
     """TX_PACKET for a program of features ``f`` on a device of ``device_kind``
     (``texray.device.opencl``'s kinds) whose fused launches sum ``samples`` samples per
-    pixel: the kind's width from :data:`PACKET_WIDTHS` from PACKET_MIN_SAMPLES samples on,
-    with shadow rays; else 0 (no packets). ``TEXRAY_PACKET`` (0, 8 or 16) overrides the rule
+    pixel: the kind's width from :data:`PACKET_WIDTHS` at any count (:func:`pixels_per_item`
+    fills the lanes), with shadow rays; else 0 (no packets). ``TEXRAY_PACKET`` (0, 8 or 16) overrides the rule
     for A/B runs. The images are the same whatever the width (accel/packet.h says when a
     closest hit may differ: within rounding of another hit; no scene's image did)."""
     override = os.environ.get("TEXRAY_PACKET")
@@ -127,8 +128,7 @@ def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN
             raise DeviceError(f"TEXRAY_PACKET: expected 0, 8 or 16, got {override!r}")
         width = int(override)
     else:
-        full = samples >= PACKET_MIN_SAMPLES or not f.adaptive     # else pixels_per_item fills the lanes
-        width = PACKET_WIDTHS.get(device_kind, 0) if full else 0
+        width = PACKET_WIDTHS.get(device_kind, 0)
     return width if f.shadows else 0
 
 
@@ -139,11 +139,11 @@ def pixels_per_item(f: Features, device_kind: str | None, samples: int = PACKET_
     leave the fewest empty lanes: the fewest packets per pixel, ceil(p samples / width) / p,
     the smallest such p (1 spp: 8 pixels in a packet of 8; 3 spp: 8 pixels, 24 samples in 3
     packets; 12 spp: 2 pixels in 3 packets, where one pixel took 2 packets of 8 for its 12;
-    any multiple of the width: 1). Else 1, and 1 for adaptive sampling, which takes its
-    pixels one by one from a list. Each pixel adds the same terms in the same order
-    whatever p, so the image does not depend on it."""
+    any multiple of the width: 1); adaptive sampling's rounds take their pixels from the
+    list of those still sampled, p at a time. Else 1. Each pixel adds the same terms in the
+    same order whatever p, so the image does not depend on it."""
     width = packet_width(f, device_kind, samples)
-    if not width or f.adaptive:
+    if not width:
         return 1
     s = max(samples, 1)
     return min(range(1, width + 1), key=lambda p: (-(-p * s // width) / p, p))

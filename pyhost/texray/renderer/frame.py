@@ -21,7 +21,7 @@ from ..device import layout, runtime
 from ..device.buffers import Uploaded
 from ..device.features import compile_options, pixels_per_item
 from ..errors import DeviceError
-from .adaptive import BLOCK_ROWS, dilate, round_size, standard_error, unconverged
+from .adaptive import BLOCK_ROWS, dilate, round_size, round_sizes, standard_error, unconverged
 from .tiling import fused_samples, plan_rows
 
 STAGES = ("raygen", "intersect", "surface", "shadow", "shade")
@@ -98,8 +98,7 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
     per_launch = fused_samples(width, height, spp) if fused else 1
     launches = (spp + per_launch - 1) // per_launch
     if adaptive is not None:            # the most launches the rounds can take
-        size = round_size(spp)
-        launches = (spp + size - 1) // size * ((size + per_launch - 1) // per_launch)
+        launches = sum((c + per_launch - 1) // per_launch for c in round_sizes(spp))
     tiles = (band + tile - 1) // tile
     total_passes = tiles * (launches + bool(aovs))
 
@@ -236,11 +235,12 @@ class _Run:
         cl.enqueue_fill_buffer(q, self.sum_y2, np.float32(0), 0, n * 4)
         active = np.arange(n, dtype=np.uint32)
         acc, y2 = np.empty((n, 4), np.float32), np.empty(n, np.float32)
-        done, size = 0, round_size(spp)
-        while done < spp and len(active):
+        done = 0
+        for count in round_sizes(spp):
+            if not len(active):
+                break
             cl.enqueue_copy(q, self.active, active)
-            gsize, lsize = self.rt.launch_size(len(active), self.local)
-            count = min(size, spp - done)
+            gsize, lsize = self.rt.launch_size(-(-len(active) // self.pixels), self.local)
             for first in range(done, done + count, per_launch):
                 report(self.fused(gsize, lsize, len(active), y0, first, min(per_launch, done + count - first)))
             self.samples += len(active) * count
