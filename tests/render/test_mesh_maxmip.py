@@ -22,8 +22,10 @@ import pytest
 import texray as tx
 from texray.compile import compile_scene
 from texray.renderer.trace import Tracer
-from disp_reference import CORNERS, one_texel_spikes, height_texture, quad_reference, trace_each, uv_sphere_mesh
-from test_mesh_search import _flat_mesh, _grazing_rays, _octahedron, _scene, _sines
+from disp_reference import CORNERS, one_texel_spikes, height_texture, quad_reference, trace_each
+from test_mesh_search import (_flat_mesh, _grazing_rays, _scene, _sines, assert_aovs_as_the_quads,
+                              assert_closed_octahedron_has_no_hole, assert_shadows_as_the_quads,
+                              assert_uv_sphere_mesh_as_the_sphere)
 
 # Relative hit distance of the mesh's maxmip against the quad's maxmip (an exact quadratic per
 # texel cell): measured 5.0e-7 at the 99th percentile from 70 to 4 degrees (1.1e-5 at most, one
@@ -87,18 +89,7 @@ def test_a_displaced_uv_sphere_mesh_matches_the_displaced_sphere(rng, device):
     the pixels differ in hit/miss (the silhouette), depth within 0.11% at the 99th percentile
     (the chords' sagitta, 3e-4, and N not renormalized, 1e-4 of H: the search's 0.12%);
     tolerances 0.5% and 0.5%."""
-    h = rng.random((16, 32)).astype(np.float32)[:, :, None]
-
-    def disp():
-        return _maxmip(tx.Texture(h, name="h"), scale=0.08)
-    sph = tx.Sphere(radius=1.0, name="s", material=tx.Material(displacement=disp()))
-    mesh = uv_sphere_mesh(sph, tx.Material(displacement=disp()))
-    cam = tx.Camera(eye=(0, 0.5, 3.5), look_at=(0, 0, 0), fov_y=35)
-    da, db = (tx.render(tx.Scene(camera=cam, objects=[o], ambient=(1, 1, 1)), 96, 72, 1, device=device,
-                        jitter=False, aovs=("depth",), cache=False).aov["depth"][..., 0] for o in (sph, mesh))
-    hit = np.isfinite(da) & np.isfinite(db)
-    assert hit.mean() > 0.3 and np.mean(np.isfinite(da) != np.isfinite(db)) < 0.005
-    assert np.quantile(np.abs(da[hit] - db[hit]) / da[hit], 0.99) < 0.005
+    assert_uv_sphere_mesh_as_the_sphere(rng, device, method="maxmip")
 
 
 def test_the_shared_edges_of_a_closed_mesh_leave_no_hole(rng, device):
@@ -107,22 +98,7 @@ def test_the_shared_edges_of_a_closed_mesh_leave_no_hole(rng, device):
     (vertex normals 55 degrees from the faces' normals: rays from the centre toward an edge
     lie in the side patches of both shells, and of the sub-prisms along it), and from
     outside no nearer than the shell's outer bound allows."""
-    p, f, uv = _octahedron()
-    d = tx.Displacement(tx.Texture(rng.random((16, 16)).astype(np.float32)[..., None], name="h"), scale=0.1,
-                        method="maxmip")
-    mesh = tx.Mesh(p, f, uvs=uv, material=tx.Material(displacement=d), name="octa")
-    e = np.array([[0, 2], [2, 1], [1, 3], [3, 0], [0, 4], [1, 4], [2, 4], [3, 4], [0, 5], [1, 5], [2, 5], [3, 5]])
-    s = np.linspace(0, 1, 97)[:, None, None]
-    targets = ((1 - s) * p[e[:, 0]] + s * p[e[:, 1]]).reshape(-1, 3)
-    dirs = np.concatenate([targets, rng.normal(size=(2000, 3))])
-    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    tracer = Tracer(tx.Scene(camera=tx.Camera(), objects=[mesh], ambient=(0.1, 0.1, 0.1)), device)
-    hits = tracer.closest(np.zeros(3), dirs.astype(np.float32))
-    assert np.all(hits.prim >= 0), f"{np.sum(hits.prim < 0)} rays of {len(dirs)} escaped from inside"
-    orgs = 3.0 * dirs + 0.01 * rng.normal(size=dirs.shape)       # from outside, toward the same points
-    t, _ = trace_each(tracer, orgs, -orgs / np.linalg.norm(orgs, axis=1, keepdims=True))
-    assert np.all(~np.isnan(t)), f"{np.sum(np.isnan(t))} rays of {len(t)} passed through from outside"
-    assert np.all(t >= np.linalg.norm(orgs, axis=1) - 1.1 - 1e-4)
+    assert_closed_octahedron_has_no_hole(rng, device, method="maxmip")
 
 
 def test_self_shadowing_matches_the_displaced_quad(device):
@@ -130,43 +106,16 @@ def test_self_shadowing_matches_the_displaced_quad(device):
     traverse its shells (any hit) as the quad's maxmip its slab. The two images agree (below
     0.5% of the pixels off by more than 0.05; measured 0.0%), and the relief does cast
     shadows (over 10% of the lit square's pixels are darker than without shadow rays)."""
-    d = _maxmip(_sines(24, k=2.0), scale=0.25)
-    light = [tx.PointLight((-40.0, 40.0 * np.tan(np.radians(8)), -5.0), (2500.0, 2500.0, 2500.0))]
-    cam = tx.Camera(eye=(0, 2.6, 1.2), look_at=(0, 0, 0), fov_y=50)
-    q = tx.Scene(camera=cam, lights=light, objects=[tx.Quad(*CORNERS, material=tx.Material(displacement=d))])
-    m = tx.Scene(camera=cam, lights=light, objects=[_flat_mesh(d)])
-    a, b = (tx.render(s, 80, 60, 1, device=device, jitter=False, cache=False).rgb for s in (q, m))
-    unshadowed = tx.render(m, 80, 60, 1, device=device, jitter=False, cache=False, shadows=False).rgb
-    diff = np.abs(a - b).max(axis=2)
-    assert np.mean(diff > 0.05) < 0.005, np.mean(diff > 0.05)
-    lit = unshadowed.max(axis=2) > 0.05
-    assert np.mean((unshadowed - b).max(axis=2)[lit] > 0.05) > 0.1
+    assert_shadows_as_the_quads(device, _maxmip(_sines(24, k=2.0), scale=0.25))
 
 
 def test_aovs_report_the_displaced_hit(device):
     """Position on the height field over the reported uv, primitive_id the face that holds
     it, object_id the mesh, normal and depth the quad maxmip's."""
-    d = _maxmip(_sines())
-    plain = tx.Sphere(center=(5, 0, 0), radius=0.1, name="other")
-    aovs = ("position", "uv", "normal", "depth", "primitive_id", "object_id")
-    m = tx.render(_scene(plain, _flat_mesh(d)), 64, 48, 1, device=device, jitter=False, aovs=aovs, cache=False).aov
-    q = tx.render(_scene(plain, tx.Quad(*CORNERS, material=tx.Material(displacement=d))), 64, 48, 1, device=device,
-                  jitter=False, aovs=aovs, cache=False).aov
-    hit = np.isfinite(m["depth"][..., 0])
-    assert hit.mean() > 0.2
-    pos, uv = m["position"][hit], m["uv"][hit]
-    np.testing.assert_allclose(pos[:, 0], 2 * uv[:, 0] - 1, atol=1e-5)
-    np.testing.assert_allclose(pos[:, 2], 1 - 2 * uv[:, 1], atol=1e-5)
-    from texray.scene.heightfield import height
-    np.testing.assert_allclose(pos[:, 1], height(d.heights(), uv[:, 0], uv[:, 1]), atol=2e-4)
-    face = np.where(uv[:, 1] <= uv[:, 0], 0, 1)                # face 0 below the diagonal u = v
-    off_diagonal = np.abs(uv[:, 0] - uv[:, 1]) > 1e-3
-    assert np.array_equal(m["primitive_id"][hit][:, 0][off_diagonal], face[off_diagonal])
-    assert np.all(m["object_id"][hit] == 1)
+    m, q, hit = assert_aovs_as_the_quads(device, _maxmip(_sines()))
     both = hit & np.isfinite(q["depth"][..., 0])
     assert np.array_equal(hit, np.isfinite(q["depth"][..., 0]))
     assert np.quantile(np.abs(m["depth"][both] - q["depth"][both])[..., 0] / q["depth"][both][..., 0], 0.99) < 1e-5
-    assert np.quantile(np.abs(m["normal"][both] - q["normal"][both]).max(axis=1), 0.99) < 1e-3
 
 
 def test_the_traversal_is_compiled_only_where_used_and_nan_rays_miss(device):

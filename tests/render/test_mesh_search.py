@@ -86,10 +86,15 @@ def test_a_displaced_uv_sphere_mesh_matches_the_displaced_sphere(rng, device):
     measured 0.03% of the pixels differ in hit/miss (the silhouette), depth within 0.12% at
     the 99th percentile (the chords' sagitta, 3e-4, and N not renormalized, 1e-4 of H);
     tolerances 0.5% and 0.5%."""
+    assert_uv_sphere_mesh_as_the_sphere(rng, device, method="search", steps=64, refine=8)
+
+
+def assert_uv_sphere_mesh_as_the_sphere(rng, device, **displacement):
+    """The test above for the displacement's method and knobs (test_mesh_maxmip.py's maxmip)."""
     h = rng.random((16, 32)).astype(np.float32)[:, :, None]
 
     def disp():
-        return tx.Displacement(tx.Texture(h, name="h"), scale=0.08, method="search", steps=64, refine=8)
+        return tx.Displacement(tx.Texture(h, name="h"), scale=0.08, **displacement)
     sph = tx.Sphere(radius=1.0, name="s", material=tx.Material(displacement=disp()))
     mesh = uv_sphere_mesh(sph, tx.Material(displacement=disp()))
     cam = tx.Camera(eye=(0, 0.5, 3.5), look_at=(0, 0, 0), fov_y=35)
@@ -112,9 +117,15 @@ def test_the_shared_edges_of_a_closed_mesh_leave_no_hole(rng, device):
     vertices, included) and at random directions: every one hits the displaced octahedron
     (area-weighted vertex normals, 55 degrees from the faces' normals), and from outside
     no nearer than the shell's outer bound allows."""
+    assert_closed_octahedron_has_no_hole(rng, device, method="search", steps=32, refine=8)
+
+
+def assert_closed_octahedron_has_no_hole(rng, device, **displacement):
+    """The test above for the octahedron displaced by ``displacement`` (tx.Displacement's
+    method and knobs; test_mesh_maxmip.py's maxmip too)."""
     p, f, uv = _octahedron()
     d = tx.Displacement(tx.Texture(rng.random((16, 16)).astype(np.float32)[..., None], name="h"), scale=0.1,
-                        method="search", steps=32, refine=8)
+                        **displacement)
     mesh = tx.Mesh(p, f, uvs=uv, material=tx.Material(displacement=d), name="octa")
     e = np.array([[0, 2], [2, 1], [1, 3], [3, 0], [0, 4], [1, 4], [2, 4], [3, 4], [0, 5], [1, 5], [2, 5], [3, 5]])
     s = np.linspace(0, 1, 97)[:, None, None]
@@ -160,7 +171,12 @@ def test_self_shadowing_matches_the_displaced_quad(device):
     search its shells (any hit) as the quad's search its slab. The two images agree (below
     0.5% of the pixels off by more than 0.05), and the relief does cast shadows (over 10%
     of the lit square's pixels are darker than without shadow rays)."""
-    d = tx.Displacement(_sines(24, k=2.0), scale=0.25, method="search", steps=64, refine=8)
+    assert_shadows_as_the_quads(device, tx.Displacement(_sines(24, k=2.0), scale=0.25, method="search", steps=64,
+                                                          refine=8))
+
+
+def assert_shadows_as_the_quads(device, d):
+    """The test above for the displacement d (test_mesh_maxmip.py's maxmip too)."""
     light = [tx.PointLight((-40.0, 40.0 * np.tan(np.radians(8)), -5.0), (2500.0, 2500.0, 2500.0))]
     cam = tx.Camera(eye=(0, 2.6, 1.2), look_at=(0, 0, 0), fov_y=50)
     q = tx.Scene(camera=cam, lights=light, objects=[tx.Quad(*CORNERS, material=tx.Material(displacement=d))])
@@ -177,7 +193,12 @@ def test_aovs_report_the_displaced_hit(device):
     """Position on the ray at the reported depth, on the height field over its uv (the
     flat square: x = 2u - 1, z = 1 - 2v, y = H(u, v)); primitive_id the face that holds it,
     object_id the mesh; normal the quad's (one gradient, one bump formula)."""
-    d = tx.Displacement(_sines(), scale=0.2, method="search", steps=64, refine=8)
+    assert_aovs_as_the_quads(device, tx.Displacement(_sines(), scale=0.2, method="search", steps=64, refine=8))
+
+
+def assert_aovs_as_the_quads(device, d):
+    """The test above for the displacement d; (the mesh's AOVs, the quad's, the mesh's hit
+    mask) for more checks (test_mesh_maxmip.py's maxmip)."""
     plain = tx.Sphere(center=(5, 0, 0), radius=0.1, name="other")
     aovs = ("position", "uv", "normal", "depth", "primitive_id", "object_id")
     m = tx.render(_scene(plain, _flat_mesh(d)), 64, 48, 1, device=device, jitter=False, aovs=aovs, cache=False).aov
@@ -196,6 +217,7 @@ def test_aovs_report_the_displaced_hit(device):
     assert np.all(m["object_id"][hit] == 1)
     both = hit & np.isfinite(q["depth"][..., 0])
     assert np.quantile(np.abs(m["normal"][both] - q["normal"][both]).max(axis=1), 0.99) < 1e-3
+    return m, q, hit
 
 
 def test_the_bench_sweeps_the_search_on_a_mesh_against_its_tessellation():
