@@ -213,11 +213,11 @@ inline void cmj_sample_packet(cmj_uint s, uint N, uint m, cmj_uint p, float* x, 
 #if TX_ADAPTIVE
     {                                                    /* cmj_cell's order, lane by lane */
         uint n1 = TX_MAX(n, 1u);
-        cmj_uint b, r, j, c;
-        cmj_divmod_packet(s, cmj_lcm(m, n1), &b, &r);
-        cmj_divmod_packet(s + b, m, &j, &c);
-        cmj_divmod_packet(s, n1, &j, &r);
-        s = cmj_permute_packet(c, m, p * TX_CMJ_SALT_C) + m * cmj_permute_packet(r, n, p * TX_CMJ_SALT_R);
+        cmj_uint run, col, row, unused;
+        cmj_divmod_packet(s, cmj_lcm(m, n1), &run, &unused);
+        cmj_divmod_packet(s + run, m, &unused, &col);
+        cmj_divmod_packet(s, n1, &unused, &row);
+        s = cmj_permute_packet(col, m, p * TX_CMJ_SALT_C) + m * cmj_permute_packet(row, n, p * TX_CMJ_SALT_R);
     }
 #else
     s = cmj_permute_packet(s, N, p * TX_CMJ_SALT_S);
@@ -260,14 +260,14 @@ inline uint hash_u32(uint x)
 inline uint light_pick(uint sample, uint p, uint n, uint b)
 {
     if (n == 0u) return 0u;
+    b = b > 1u ? b : 1u;
 #if TX_ADAPTIVE
     /* b (light_block): the pattern's row count n. cmj_cell takes the rows in turn, so that
      * the lights in turn would tie each light to rows (or columns); each run of b samples
      * takes them in a random order of its own instead (each light as often, on random rows) */
-    b = b > 1u ? b : 1u;
     uint i = sample - sample % b + cmj_permute(sample % b, b, hash_u32(p ^ TX_LIGHT_SALT ^ (sample / b)));
 #else
-    uint i = sample / (b > 1u ? b : 1u);
+    uint i = sample / b;
 #endif
     return (i % n + hash_u32(p ^ TX_LIGHT_SALT) % n) % n;
 }

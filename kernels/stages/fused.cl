@@ -161,8 +161,8 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
             HitRec h = bvh_closest(TX_GEOM_ARGS, org, dir, 0.0f, INFINITY);
 #define TX_PRE_GEOM(j) ((const Geom*)0)
 #endif
-            surface_eval(org, dir, h, TX_PRE_GEOM(j), TX_GEOM_ARGS, TX_SURFACE_ARGS, (__global float*)0, TX_PIXEL(lp[j]),
-                         s + j);
+            surface_eval(org, dir, h, TX_PRE_GEOM(j), TX_GEOM_ARGS, TX_SURFACE_ARGS, (__global float*)0,
+                         TX_PIXEL(lp[j]), s + j);
 #undef TX_PRE_GEOM
             c[j] = background.xyz;
             if (s[j].valid) {

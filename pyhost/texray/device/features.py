@@ -105,8 +105,8 @@ def max_lights_for(n: int) -> int:
 # 0.5-0.97 of the scalar frame; README, Performance). A launch summing fewer samples per
 # pixel than the packet has lanes would fill too few (one pixel's packets measured slower at
 # 1 and 2 spp): several pixels per work-item fill them (pixels_per_item), in adaptive
-# sampling's rounds too. GPUs already spread work-items across SIMD lanes. Intel's CPU runtime does too
-# (16 wide). Its vectorized kernels ran the bench scenes at 1.5-2x the frame time of packets
+# sampling's rounds too. GPUs already spread work-items across SIMD lanes. Intel's CPU
+# runtime does too (16 wide). Its vectorized kernels ran the bench scenes at 1.5-2x the frame time of packets
 # of 8 in work-groups of one (TEXRAY_PACKET=8: texray.device.opencl.PACKET_LOCAL_SIZES), which
 # come within 10% of PoCL's packets, but it builds the packet programs 2-3x slower (a cold
 # build of the showcase's program: 47 s against 14 s; the globe's 4.7 against 2.2), so the
@@ -119,8 +119,8 @@ def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN
     """TX_PACKET for a program of features ``f`` on a device of ``device_kind``
     (``texray.device.opencl``'s kinds) whose fused launches sum ``samples`` samples per
     pixel: the kind's width from :data:`PACKET_WIDTHS` at any count (:func:`pixels_per_item`
-    fills the lanes), with shadow rays; else 0 (no packets). ``TEXRAY_PACKET`` (0, 8 or 16) overrides the rule
-    for A/B runs. The images are the same whatever the width (accel/packet.h says when a
+    fills the lanes), with shadow rays; else 0 (no packets). ``TEXRAY_PACKET`` (0, 8 or 16)
+    overrides the rule for A/B runs. The images are the same whatever the width (accel/packet.h says when a
     closest hit may differ: within rounding of another hit; no scene's image did)."""
     override = os.environ.get("TEXRAY_PACKET")
     if override is not None and override.strip() != "":
