@@ -17,6 +17,11 @@ from ..device import layout
 from ..device.layout import BVH_NODE
 
 BUILDERS = ("auto", "numpy", "cells")
+# Leaf sizes by kind: triangles four to a leaf (the leaf test runs them as float4 lanes,
+# kernels/geometry/triangle.h); every other kind one to a leaf, so that a node's box test,
+# cheaper than a quad's, sphere's, cylinder's, displaced patch's or instance's own test,
+# culls it alone (leaves of 4 quads: a bumped brick wall's frame 1.23x slower, tools/ab.py).
+MAX_LEAF = {layout.PRIM_TRIANGLE: 4}
 
 
 @dataclass
@@ -39,10 +44,12 @@ def build_kind(lo, hi, kind, builder="auto") -> bvh.BVH:
     """One kind's tree: the numpy builder (texray.accel.bvh), or the cell builder
     (texray.accel.cells: Morton cells built on PoCL's CPU device, 6-8x faster on a
     million triangles, SAH cost within a few percent); "auto" takes the cells from
-    cells.MIN_PRIMS primitives on."""
+    cells.MIN_PRIMS primitives on. Leaves hold up to MAX_LEAF[kind] primitives (1 unless
+    listed)."""
+    max_leaf = MAX_LEAF.get(kind, 1)
     if builder == "cells" or (builder == "auto" and len(lo) >= cells.MIN_PRIMS):
-        return cells.build(lo, hi, kind=kind)
-    return bvh.build(lo, hi, kind=kind)
+        return cells.build(lo, hi, kind=kind, max_leaf=max_leaf)
+    return bvh.build(lo, hi, kind=kind, max_leaf=max_leaf)
 
 
 def build_scene_bvh(boxes: dict, builder="auto") -> SceneBVH:
