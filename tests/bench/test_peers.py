@@ -110,6 +110,24 @@ def test_comparable_scene_drops_ambient_and_specular_only_in_the_copy():
     assert sc.objects[0].material.specular == 0.3 and sc.ambient == (0.05, 0.05, 0.05)
 
 
+def test_comparable_scene_differentiates_bump_maps_exactly_as_mitsuba_does():
+    Bump = _bump_class()
+    height = _texture(seed=4)
+    bumped = tx.Material(diffuse=(0.5, 0.5, 0.5), bump=Bump(height, height=0.02))
+    sc = _quad_scene(bumped)
+    cmp, notes = peers.comparable_scene(sc)
+    b = cmp.objects[0].material.bump
+    assert b.delta == "analytic" and b.height == 0.02 and b.texture is height
+    assert sc.objects[0].material.bump.delta is None                       # the original keeps its step
+    assert any("bump delta set to 'analytic' in 1 material" in n for n in notes)
+    spec = peers.mitsuba_spec(cmp, 16, 12, 1)
+    assert not any("not converted" in n for n in spec["notes"])            # nothing left unconverted
+    # already exact: the material is shared, no note
+    exact = tx.Material(bump=Bump(height, height=0.02, delta="analytic"))
+    cmp2, notes2 = peers.comparable_scene(_quad_scene(exact))
+    assert cmp2.objects[0].material is exact and not any("bump" in n for n in notes2)
+
+
 def test_cylinder_full_turn_frame_and_partial_unsupported():
     cyl = tx.Cylinder(0.8, (-0.5, 0.7), (90, 450), axis_z=(0, 1, 0), axis_x=(1, 0, 0))
     s = peers.shape_spec(cyl)

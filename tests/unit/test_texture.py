@@ -280,6 +280,25 @@ def test_packing_per_kind_and_variant():
     assert cs.textures is None and "texels" not in cs.device_bytes()
 
 
+def test_packed_texels_are_the_levels_in_half_floats_converted_once():
+    rng = np.random.default_rng(5)
+    colour = tx.Texture.from_array(rng.uniform(size=(8, 6, 3)) * 3, colorspace="linear", name="c")
+    tri = colour.with_options(filter="trilinear")
+    hdr = tx.Texture.from_array(np.full((2, 3), txt.HALF_MAX), colorspace="srgb", name="hdr")
+    scene = _scene(tx.Material(diffuse=tri, specular=colour, shininess_map=hdr))
+    cs = compile_scene(scene)
+    # the reference: every packed level in float32, clamped to the half range, then converted
+    levels = tri.levels("colour", mip=True) + hdr.levels("data", mip=False)
+    ref = np.clip(np.concatenate([lv.reshape(-1) for lv in levels]), -txt.HALF_MAX, txt.HALF_MAX)
+    np.testing.assert_array_equal(cs.texels, ref.astype(np.float16))
+    assert np.isfinite(cs.texels.astype(np.float32)).all()
+    # the conversion is kept on the texture's pixels: compiling again converts nothing
+    a = tri.half_texels("colour", mip=True)
+    assert a is colour.half_texels("colour", mip=True) and not a.flags.writeable
+    cs2 = compile_scene(scene)
+    np.testing.assert_array_equal(cs2.texels, cs.texels)
+
+
 def test_only_trilinear_textures_get_levels():
     img = np.random.default_rng(2).uniform(size=(8, 5, 3))
     bil = tx.Texture.from_array(img)

@@ -10,7 +10,8 @@ which conventions were undone to make the two comparable:
 * :func:`embree_rays` -- Embree's closest-hit and any-hit throughput on those
   rays and mesh, BVH build time, and its agreement with texray's hits.
 * :func:`comparable_scene` -- the texray scene both renderers render: ambient 0,
-  specular 0 (Mitsuba has no Phong lobe).
+  specular 0 (Mitsuba has no Phong lobe), bump maps differentiated exactly (Mitsuba's
+  bumpmap: texray's ``delta="analytic"``).
 * :func:`mitsuba_spec` -- a texray :class:`~texray.scene.Scene` as plain numpy
   data in Mitsuba's conventions (pure Python: testable without Mitsuba);
   :func:`mitsuba_scene_dict` turns it into a ``mi.load_dict`` dictionary.
@@ -267,21 +268,31 @@ def embree_rays(positions, faces, origins, dirs, shadow_origins=None, shadow_dir
 
 def comparable_scene(scene: Scene):
     """(scene, notes): a copy of ``scene`` that both texray and Mitsuba render the same way:
-    ambient 0 (texray's unshadowed ambient kd has no Mitsuba counterpart) and specular 0 (texray's
-    Phong (R.V)^n lobe has none either). Objects, textures and lights are shared, not copied."""
+    ambient 0 (texray's unshadowed ambient kd has no Mitsuba counterpart), specular 0 (texray's
+    Phong (R.V)^n lobe has none either) and every bump map with ``delta="analytic"``, the
+    exact gradient of the bilinear interpolant, which is what Mitsuba's ``bumpmap``
+    computes (texray's default, central differences one texel apart, reads four bilinear
+    lookups to Mitsuba's one: not the same work, nor the same normal). Objects, textures
+    and lights are shared, not copied."""
     notes = []
     if np.any(np.asarray(scene.ambient, float) != 0):
         notes.append(f"ambient {tuple(scene.ambient)} set to 0 in both renders")
-    mats, objects, dropped = {}, [], 0
+    mats, objects, dropped, exact = {}, [], 0, 0
     def without_specular(m):
-        nonlocal dropped
+        nonlocal dropped, exact
         if id(m) not in mats:
             _, ks, _ = m.validate()
-            dropped += bool(np.any(ks > 0))
-            fields = {"specular": 0.0}
-            if getattr(m, "shininess_map", None) is not None:
-                fields["shininess_map"] = None
-            mats[id(m)] = dataclasses.replace(m, **fields) if np.any(ks > 0) else m
+            fields = {}
+            if np.any(ks > 0):
+                dropped += 1
+                fields["specular"] = 0.0
+                if getattr(m, "shininess_map", None) is not None:
+                    fields["shininess_map"] = None
+            bump = getattr(m, "bump", None)
+            if bump is not None and bump.delta != "analytic":
+                exact += 1
+                fields["bump"] = dataclasses.replace(bump, delta="analytic")
+            mats[id(m)] = dataclasses.replace(m, **fields) if fields else m
         return mats[id(m)]
 
     for obj in scene.objects:
@@ -289,6 +300,9 @@ def comparable_scene(scene: Scene):
         objects.append(dataclasses.replace(obj, material=new if isinstance(obj.material, (list, tuple)) else new[0]))
     if dropped:
         notes.append(f"specular set to 0 in {dropped} material(s) in both renders (Mitsuba has no Phong lobe)")
+    if exact:
+        notes.append(f"bump delta set to 'analytic' in {exact} material(s) in both renders (Mitsuba's bumpmap "
+                     "differentiates the bilinear height field exactly)")
     out = dataclasses.replace(scene, ambient=(0.0, 0.0, 0.0), objects=objects)
     if hasattr(scene, "render_settings"):
         out.render_settings = scene.render_settings
@@ -447,8 +461,9 @@ def mitsuba_spec(scene: Scene, width, height, spp=16, seed=0, sampler="multijitt
             notes.append(f"{obj.name}: trilinear (MIP-mapped) texture rendered bilinear by Mitsuba")
         if s["material"]["bump"] is not None:
             notes.append(f"{obj.name}: bump as Mitsuba bumpmap (scale = height, exact bilinear gradient = "
-                         "texray's delta='analytic', no shadowing function, no normal flipping; texray's "
-                         f"delta={s['material']['bump']['delta_ignored']!r} is not converted)")
+                         "texray's delta='analytic', no shadowing function, no normal flipping"
+                         + ("" if s['material']['bump']['delta_ignored'] == "analytic" else
+                            f"; texray's delta={s['material']['bump']['delta_ignored']!r} is not converted") + ")")
         shapes.append(s)
     lights = []
     for light in scene.lights:

@@ -33,7 +33,7 @@ def pack(entries):
         if total >= MAX_TEXELS:
             raise SceneError(f"{t.field}: {t.name}: the scene's textures need {total} texels or more, beyond the "
                              f"{MAX_TEXELS} that 32-bit texel offsets address")
-        blocks.extend(lv.reshape(-1, 4) for lv in levels)
+        blocks.append(t.half_texels(kind, mip=mip[key]))      # float16, clamped to +-HALF_MAX; cached
     table = np.zeros(len(entries), layout.TEXTURE)
     for i, (t, kind) in enumerate(entries):
         key = (id(t._pixels), kind)
@@ -44,12 +44,9 @@ def pack(entries):
         table[i]["levels"] = nlevels[key] if t.filter in MIP_FILTERS else 1
         table[i]["max_aniso"] = t.max_aniso
         table[i]["m0"], table[i]["m1"] = (t.uv_transform or UVTransform()).device_args()
-    # Half floats top out at 65504: clamp so that bright HDR texels stay finite (in place, and
-    # only when some texel is beyond it: np.clip's copy was half of packing 16M texels).
-    texels = np.concatenate(blocks)
-    if not (texels.max(initial=0.0) <= HALF_MAX and texels.min(initial=0.0) >= -HALF_MAX):
-        np.clip(texels, -HALF_MAX, HALF_MAX, out=texels)
-    texels = texels.astype(np.float16).ravel()
+    # Half floats top out at 65504: each block is clamped so that bright HDR texels stay
+    # finite (Texture.half_texels).
+    texels = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
     return table, texels
 
 

@@ -175,6 +175,10 @@ class Texture:
         float32 (h, w, 4) arrays; only level 0 when ``mip`` is False."""
         return self._pixels.levels(kind) if mip else [self._pixels.rgba(kind)]
 
+    def half_texels(self, kind="colour", mip=True) -> np.ndarray:
+        """:meth:`levels` as the device's flat float16 RGBA texels (cached)."""
+        return self._pixels.half_texels(kind, mip)
+
     def __repr__(self):
         return f"Texture({self.name!r}, {self.shape[1]}x{self.shape[0]}x{self.channels}, {self.filter})"
 
@@ -183,11 +187,11 @@ class _Pixels:
     """Raw pixels shared by the variants of one texture, with the role kinds and MIP
     pyramids made from them on first use."""
 
-    DERIVED = ("_rgba", "_levels")      # caches of values made from the others: not content (texray.compile.scene_hash)
+    DERIVED = ("_rgba", "_levels", "_half")   # caches of values made from the others: not content (texray.compile.scene_hash)
 
     def __init__(self, raw, colorspace):
         self.raw, self.colorspace = raw, colorspace
-        self._rgba, self._levels = {}, {}
+        self._rgba, self._levels, self._half = {}, {}, {}
 
     def rgba(self, kind):
         if kind not in self._rgba:
@@ -198,6 +202,21 @@ class _Pixels:
         if kind not in self._levels:
             self._levels[kind] = mip_pyramid(self.rgba(kind))
         return self._levels[kind]
+
+    def half_texels(self, kind, mip):
+        """The levels (all with ``mip``, else level 0) as the device stores them: one flat
+        float16 array of RGBA texels, level after level, clamped to +-HALF_MAX. Kept, so
+        that rendering a scene again does not convert its textures again (a third of a small
+        scene's per-render host time)."""
+        key = (kind, bool(mip))
+        if key not in self._half:
+            levels = self.levels(kind) if mip else [self.rgba(kind)]
+            texels = np.concatenate([lv.reshape(-1) for lv in levels])
+            if not (texels.max(initial=0.0) <= HALF_MAX and texels.min(initial=0.0) >= -HALF_MAX):
+                texels = np.clip(texels, -HALF_MAX, HALF_MAX)
+            self._half[key] = texels.astype(np.float16)
+            self._half[key].flags.writeable = False
+        return self._half[key]
 
 
 def _check_pixels(array, name, field):
