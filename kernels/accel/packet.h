@@ -67,6 +67,11 @@ typedef struct {
     pfloat ivx, ivy, ivz;
     pint nx, ny, nz, par;
     pfloat rxx, rxy, rxz, ryx, ryy, ryz, rzx, rzy, rzz;
+    /* Where every traced lane has the same shear axes (kx, ky, kz; nearly every packet of one
+     * pixel's camera rays or of shadow rays toward one light): uniform = 1, the axes, the
+     * origins' coordinates along them and the shear factors sx, sy, sz per lane. */
+    int uniform, kx, ky, kz;
+    pfloat okx, oky, okz, sx, sy, sz;
 } PacketRay;
 
 /* Lane j of the packet: the ray org + t dir, t in (tmin, tmax). */
@@ -93,14 +98,18 @@ inline pfloat safe_inverse_p(pfloat x)
     return PSEL_F(fabs(x) < 7.888609e-31f, big, 1.0f / x);
 }
 
+/* The component of v along axis k (0, 1, 2) of a packet's uniform shear. */
+#define TX_PAXIS(k, x, y, z) ((k) == 0 ? (x) : ((k) == 1 ? (y) : (z)))
+
 /* What the scalar traversal derives per ray, lane by lane, with its arithmetic: woop_setup's
  * axes (woop_axes) as lane masks -- kz == i, and kx, ky from it, swapped where d[kz] < 0
  * -- and its shear rows unit3(k) - s unit3(kz), s = d[k] / d[kz]; safe_inverse, the signs
  * and the parallel flag (the shear rows only where the program has triangles: a scene of
  * spheres or quads spent 4-8% of its frame on them). The masks are combined with bit operations only: a select among
  * constant int vectors is what Oclgrind 21.10 miscomputes (woop_axes per lane in scalar
- * code measured 12% of a textured-mesh frame). */
-inline void packet_setup(PacketRay* r)
+ * code measured 12% of a textured-mesh frame). `active`: the lanes to be traced, whose
+ * axes decide whether the packet's shear is uniform (triangle_packet). */
+inline void packet_setup(PacketRay* r, pint active)
 {
     pfloat dx = (pfloat)(TX_LANES(r->dir[0])), dy = (pfloat)(TX_LANES(r->dir[1])), dz = (pfloat)(TX_LANES(r->dir[2]));
     r->tmin = (pfloat)(TX_LANES(r->range[0])); r->tmax = (pfloat)(TX_LANES(r->range[1]));
@@ -109,6 +118,7 @@ inline void packet_setup(PacketRay* r)
     r->ivx = safe_inverse_p(dx); r->ivy = safe_inverse_p(dy); r->ivz = safe_inverse_p(dz);
     r->par = (fabs(r->ivx) >= TX_PARALLEL_INV) | (fabs(r->ivy) >= TX_PARALLEL_INV) | (fabs(r->ivz) >= TX_PARALLEL_INV);
     r->nx = r->ivx < 0.0f; r->ny = r->ivy < 0.0f; r->nz = r->ivz < 0.0f;
+    r->uniform = 0;
     if (!TX_TRIANGLES) return;                   /* the shear rows serve triangle_packet only */
     pfloat adx = fabs(dx), ady = fabs(dy), adz = fabs(dz);
     pint cxy = adx > ady, cxz = adx > adz, cyz = ady > adz;
@@ -121,6 +131,25 @@ inline void packet_setup(PacketRay* r)
     pint Y0 = PSEL_I(neg, x0, y0), Y1 = PSEL_I(neg, x1, y1), Y2 = PSEL_I(neg, x2, y2);
     pfloat sx = PSEL_F(X0, dx, PSEL_F(X1, dy, dz)) / dkz, sy = PSEL_F(Y0, dx, PSEL_F(Y1, dy, dz)) / dkz;
     pfloat sz = 1.0f / dkz;
+    /* the axes as numbers 0..2 per lane, packed kx | ky << 2 | kz << 4; uniform where every
+     * active lane has the first active lane's (then triangle_packet needs no rows) */
+    pint kxi = (X1 & 1) | (X2 & 2), kyi = (Y1 & 1) | (Y2 & 2), kzi = (z1 & 1) | (z2 & 2);
+    pint code = kxi | (kyi << 2) | (kzi << 4);
+    int codes[TX_PACKET], act[TX_PACKET];
+    PSTORE(code, codes);
+    PSTORE(active, act);
+    int c0 = -1;
+    for (int j = TX_PACKET - 1; j >= 0; --j)
+        if (act[j]) c0 = codes[j];
+    r->uniform = c0 >= 0 && !any(active & (code != (pint)(c0)));
+    if (r->uniform) {
+        r->kx = c0 & 3; r->ky = (c0 >> 2) & 3; r->kz = c0 >> 4;
+        r->okx = TX_PAXIS(r->kx, r->ox, r->oy, r->oz);
+        r->oky = TX_PAXIS(r->ky, r->ox, r->oy, r->oz);
+        r->okz = TX_PAXIS(r->kz, r->ox, r->oy, r->oz);
+        r->sx = sx; r->sy = sy; r->sz = sz;
+        return;
+    }
     pfloat one = (pfloat)(1.0f), zero = (pfloat)(0.0f);
     pfloat uzx = PSEL_F(z0, one, zero), uzy = PSEL_F(z1, one, zero), uzz = PSEL_F(z2, one, zero);
     r->rxx = PSEL_F(X0, one, zero) - sx * uzx; r->rxy = PSEL_F(X1, one, zero) - sx * uzy;
@@ -177,12 +206,32 @@ inline pint triangle_packet(const PacketRay* r, __global const TriVerts* tv, pin
                             pfloat* t, pfloat* b1, pfloat* b2)
 {
     float3 a = tri_p0(tv), b = tri_p1(tv), c = tri_p2(tv);
-    pfloat Ax = a.x - r->ox, Ay = a.y - r->oy, Az = a.z - r->oz;
-    pfloat Bx = b.x - r->ox, By = b.y - r->oy, Bz = b.z - r->oz;
-    pfloat Cx = c.x - r->ox, Cy = c.y - r->oy, Cz = c.z - r->oz;
-    pfloat ax = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Ax, Ay, Az), ay = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Ax, Ay, Az);
-    pfloat bx = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Bx, By, Bz), by = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Bx, By, Bz);
-    pfloat cx = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Cx, Cy, Cz), cy = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Cx, Cy, Cz);
+    pfloat ax, ay, bx, by, cx, cy, Akz, Bkz, Ckz;
+    pfloat Ax, Ay, Az, Bx, By, Bz, Cx, Cy, Cz;
+    if (r->uniform) {
+        /* One shear for the whole packet: the vertices' coordinates along its axes, then
+         * woop_setup's rows written out, x' = q[kx] - sx q[kz], y' = q[ky] - sy q[kz],
+         * z' = sz q[kz] -- the rows' products by their 0 and 1 entries left out. The same
+         * floats as the general rows below (adding +-0 to a sum changes at most the sign of
+         * a zero, which no test below tells apart), in a third of the arithmetic. */
+        int kx = r->kx, ky = r->ky, kz = r->kz;
+        pfloat Akx = TX_PAXIS(kx, a.x, a.y, a.z) - r->okx, Aky = TX_PAXIS(ky, a.x, a.y, a.z) - r->oky;
+        pfloat Bkx = TX_PAXIS(kx, b.x, b.y, b.z) - r->okx, Bky = TX_PAXIS(ky, b.x, b.y, b.z) - r->oky;
+        pfloat Ckx = TX_PAXIS(kx, c.x, c.y, c.z) - r->okx, Cky = TX_PAXIS(ky, c.x, c.y, c.z) - r->oky;
+        Akz = TX_PAXIS(kz, a.x, a.y, a.z) - r->okz;
+        Bkz = TX_PAXIS(kz, b.x, b.y, b.z) - r->okz;
+        Ckz = TX_PAXIS(kz, c.x, c.y, c.z) - r->okz;
+        ax = Akx - r->sx * Akz; ay = Aky - r->sy * Akz;
+        bx = Bkx - r->sx * Bkz; by = Bky - r->sy * Bkz;
+        cx = Ckx - r->sx * Ckz; cy = Cky - r->sy * Ckz;
+    } else {
+        Ax = a.x - r->ox; Ay = a.y - r->oy; Az = a.z - r->oz;
+        Bx = b.x - r->ox; By = b.y - r->oy; Bz = b.z - r->oz;
+        Cx = c.x - r->ox; Cy = c.y - r->oy; Cz = c.z - r->oz;
+        ax = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Ax, Ay, Az); ay = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Ax, Ay, Az);
+        bx = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Bx, By, Bz); by = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Bx, By, Bz);
+        cx = TX_WOOP_SHEAR(r->rxx, r->rxy, r->rxz, Cx, Cy, Cz); cy = TX_WOOP_SHEAR(r->ryx, r->ryy, r->ryz, Cx, Cy, Cz);
+    }
     pfloat U, V, W;
     TX_WOOP_EDGES(U, V, W, ax, ay, bx, by, cx, cy);
 #ifdef cl_khr_fp64
@@ -192,8 +241,13 @@ inline pint triangle_packet(const PacketRay* r, __global const TriVerts* tv, pin
     pint ok = m & (((U >= 0.0f) & (V >= 0.0f) & (W >= 0.0f)) | ((U <= 0.0f) & (V <= 0.0f) & (W <= 0.0f)));
     if (!any(ok)) return ok;
     pfloat det = U + V + W;
-    pfloat az = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Ax, Ay, Az), bz = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Bx, By, Bz);
-    pfloat cz = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Cx, Cy, Cz);
+    pfloat az, bz, cz;
+    if (r->uniform) {
+        az = r->sz * Akz; bz = r->sz * Bkz; cz = r->sz * Ckz;
+    } else {
+        az = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Ax, Ay, Az); bz = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Bx, By, Bz);
+        cz = TX_WOOP_SHEAR(r->rzx, r->rzy, r->rzz, Cx, Cy, Cz);
+    }
     pfloat T = U * az + V * bz + W * cz;
     pfloat inv = 1.0f / det;
     pfloat tt = T * inv;

@@ -72,7 +72,7 @@ inline void light_visible_packet(const Surface* s, const float3* org, const int*
         }
         packet_set_lane(&r, j, o, d, 0.0f, 1.0f);
     }
-    packet_setup(&r);
+    packet_setup(&r, (pint)(TX_LANES(act)));
     int occ[TX_PACKET];
     PSTORE(bvh_any_packet(TX_GEOM_ARGS, &r, (pint)(TX_LANES(act))), occ);
     for (uint j = 0; j < m; ++j) vis[j] = act[j] && !occ[j];

@@ -116,7 +116,7 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
             }
             packet_set_lane(&pr, j, org, dir, 0.0f, INFINITY);
         }
-        packet_setup(&pr);
+        packet_setup(&pr, (pint)(TX_LANES(act)));
         PacketHit ph = bvh_closest_packet(TX_GEOM_ARGS, &pr, (pint)(TX_LANES(act)));
         float ht[TX_CHUNK], hb1[TX_CHUNK], hb2[TX_CHUNK];
         int hp[TX_CHUNK];

@@ -43,7 +43,7 @@ inline void packet_of_rays(__global const Ray* rays, uint base, uint n, PacketRa
         }
         packet_set_lane(r, j, o, d, t0, t1);
     }
-    packet_setup(r);
+    packet_setup(r, (pint)(TX_LANES(act)));
 }
 
 /* `occluded` and `intersect` with TX_PACKET consecutive rays per work-item traced as one
