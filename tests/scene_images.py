@@ -40,9 +40,24 @@ def png_path(path) -> Path:
 
 
 def device_signature(device=None) -> str:
+    """The driver, the device and, for a CPU device, the widest vector instruction set its CPU
+    has: PoCL names every AMD EPYC alike but links a builtin library built for that set
+    (kernel-x86_64-...-avx2.bc or -avx512.bc), whose last bits differ (roles/roles.toml)."""
     from texray.device import runtime
+    import pyopencl as cl
     d = runtime(device).device
-    return f"{d.platform.version.strip()} | {d.name.strip()}"
+    sig = f"{d.platform.version.strip()} | {d.name.strip()}"
+    return sig + f" | {cpu_isa()}" if d.type & cl.device_type.CPU else sig
+
+
+def cpu_isa() -> str:
+    """The widest of AVX-512, AVX2 and AVX in this machine's CPU flags (Linux), else 'unknown'."""
+    try:
+        flags = set(next(line for line in open("/proc/cpuinfo") if line.startswith("flags")).split())
+    except (OSError, StopIteration):
+        return "unknown"
+    return next((name for name, flag in (("avx512", "avx512f"), ("avx2", "avx2"), ("avx", "avx")) if flag in flags),
+                "unknown")
 
 
 def render(path, device=None):

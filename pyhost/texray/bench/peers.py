@@ -510,12 +510,18 @@ def _mesh(mi, s, bsdf):
     mesh = mi.Mesh(s["name"], len(p), len(f), props=props, has_vertex_normals=s["normals"] is not None,
                    has_vertex_texcoords=s["uvs"] is not None)
     params = mi.traverse(mesh)
-    params["vertex_positions"] = mi.Float(np.ravel(p))
-    params["faces"] = mi.UInt32(np.ravel(f))
+
+    def put(key, a):
+        # the buffer's own type: mi.Float is an array in the llvm variants but a Python float
+        # in scalar_rgb (the fallback without a usable libLLVM), whose buffers are ArrayXf
+        params[key] = type(params[key])(np.ravel(a))
+
+    put("vertex_positions", p)
+    put("faces", f)
     if s["normals"] is not None:
-        params["vertex_normals"] = mi.Float(np.ravel(np.asarray(s["normals"], np.float32)))
+        put("vertex_normals", np.asarray(s["normals"], np.float32))
     if s["uvs"] is not None:
-        params["vertex_texcoords"] = mi.Float(np.ravel(np.asarray(s["uvs"], np.float32)))
+        put("vertex_texcoords", np.asarray(s["uvs"], np.float32))
     params.update()
     return mesh
 
