@@ -11,6 +11,13 @@
 #ifndef TEXRAY_BUILTINS_H
 #define TEXRAY_BUILTINS_H
 #if TX_POCL
+/* On a CPU that PoCL's LLVM 14 compiles for without AVX-512 (znver3 on an AMD EPYC), clang
+ * warns at every function that takes or passes a 16-lane vector ("AVX vector argument of type
+ * float16 without 'avx512f' enabled changes the ABI", -Wpsabi), and -Werror builds
+ * (tests/portability/test_build.py) failed. Within the program every such call has one ABI;
+ * the hazard is a call into PoCL's library, built with AVX-512: none is left (the 16-lane
+ * versions below), and test_packet.py checks that 16-lane programs build, run and reload. */
+#pragma clang diagnostic ignored "-Wpsabi"
 
 /* |x|: the sign bit cleared (NaN stays NaN). */
 __attribute__((overloadable)) inline float tx_fabs(float x) { return as_float(as_uint(x) & 0x7fffffffu); }
@@ -114,6 +121,54 @@ __attribute__((overloadable)) inline int tx_all(int16 v) { return tx_all(v.lo & 
 #undef vstore3
 #define vstore3(v, o, p) do { float3 tx_v_ = (v); (p)[3 * (o)] = tx_v_.x; (p)[3 * (o) + 1] = tx_v_.y; \
                               (p)[3 * (o) + 2] = tx_v_.z; } while (0)
+/* vstore16, vload16 (of private float, int or uint arrays and global floats: another address
+ * space or type does not compile) and convert_float16 as two 8-lane halves: accel/packet.h's PSTORE,
+ * geometry/triangle.h's TX_WOOP_EXACT_EDGES and core/sampler.h at TX_PACKET=16. Not for
+ * speed: PoCL 3.0 picks its builtin library by the CPU's features (kernel-x86_64-...-avx512.bc
+ * on an AMD EPYC with AVX-512) but compiles kernels for the CPU that LLVM 14 names (znver3,
+ * without AVX-512: "AVX vector argument of type float16 without 'avx512f' enabled changes the
+ * ABI"), so a 16-lane argument or result crosses between two ABIs. A call of the library's
+ * vstore16, vload16 or convert_float16 left bitcode that LLVM cannot read back ("Invalid
+ * cast": in the next process the program from PoCL's cache had no kernels) and whose code
+ * generation aborted the process ("Do not know how to scalarize this operator's operand").
+ * With these, and the inline versions above, no 16-lane value reaches the library
+ * (tests/kernels/test_packet.py builds the 16-lane program twice, the second from the
+ * cache; 2026-12-04, pocl-binary-distribution 3.0). */
+__attribute__((overloadable)) inline void tx_vstore16(float16 v, size_t o, float* p)
+{
+    vstore8(v.lo, 2 * o, p); vstore8(v.hi, 2 * o + 1, p);
+}
+__attribute__((overloadable)) inline void tx_vstore16(int16 v, size_t o, int* p)
+{
+    vstore8(v.lo, 2 * o, p); vstore8(v.hi, 2 * o + 1, p);
+}
+__attribute__((overloadable)) inline float16 tx_vload16(size_t o, const float* p)
+{
+    return (float16)(vload8(2 * o, p), vload8(2 * o + 1, p));
+}
+__attribute__((overloadable)) inline void tx_vstore16(float16 v, size_t o, __global float* p)
+{
+    vstore8(v.lo, 2 * o, p); vstore8(v.hi, 2 * o + 1, p);
+}
+__attribute__((overloadable)) inline float16 tx_vload16(size_t o, const __global float* p)
+{
+    return (float16)(vload8(2 * o, p), vload8(2 * o + 1, p));
+}
+__attribute__((overloadable)) inline uint16 tx_vload16(size_t o, const uint* p)
+{
+    return (uint16)(vload8(2 * o, p), vload8(2 * o + 1, p));
+}
+/* Round to nearest even in either form: the same floats. */
+__attribute__((overloadable)) inline float16 tx_convert_float16(uint16 v)
+{
+    return (float16)(convert_float8(v.lo), convert_float8(v.hi));
+}
+#undef convert_float16
+#define convert_float16 tx_convert_float16
+#undef vstore16
+#define vstore16 tx_vstore16
+#undef vload16
+#define vload16 tx_vload16
 /* isnan, isinf, isfinite of a float (1 or 0, as the scalar builtins): its exponent bits. */
 inline int tx_isnan(float x) { return (as_uint(x) & 0x7fffffffu) > 0x7f800000u; }
 inline int tx_isinf(float x) { return (as_uint(x) & 0x7fffffffu) == 0x7f800000u; }

@@ -164,10 +164,20 @@ inline float2 cmj_sample(uint s, uint N, uint p)
 typedef TX_CMJ_VT(uint) cmj_uint;
 typedef TX_CMJ_VT(int) cmj_int;
 typedef TX_CMJ_VT(float) cmj_float;
+/* The conversion, load and store spelled out per width, not pasted by TX_CMJ_VT: PoCL's headers
+ * make `convert_float`, `vload` and `vstore` macros of their own (_cl_convert_float, ...), which
+ * TX_CMJ_VT's argument would expand to before the paste, past core/builtins.h's 16-lane
+ * versions into a library call that breaks the program on AVX2 targets (builtins.h). */
 #if TX_PACKET == 16
 #define TX_CMJ_LANE_IDS (cmj_uint)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u, 8u, 9u, 10u, 11u, 12u, 13u, 14u, 15u)
+#define TX_CMJ_TO_FLOAT(v) convert_float16(v)
+#define TX_CMJ_LOAD(p) vload16(0, p)
+#define TX_CMJ_STORE(v, p) vstore16(v, 0, p)
 #else
 #define TX_CMJ_LANE_IDS (cmj_uint)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u)
+#define TX_CMJ_TO_FLOAT(v) convert_float8(v)
+#define TX_CMJ_LOAD(p) vload8(0, p)
+#define TX_CMJ_STORE(v, p) vstore8(v, 0, p)
 #endif
 
 /* cmj_permute lane by lane (each lane its own pattern p): a lane's walk stops where the
@@ -229,12 +239,12 @@ inline void cmj_sample_packet(cmj_uint s, uint N, uint m, cmj_uint p, float* x, 
     cmj_uint bx = s, by = s;
     TX_CMJ_RANDBITS(bx, pjx);
     TX_CMJ_RANDBITS(by, pjy);
-    cmj_float jx = TX_CMJ_VT(convert_float)(bx) * TX_CMJ_RANDSCALE;
-    cmj_float jy = TX_CMJ_VT(convert_float)(by) * TX_CMJ_RANDSCALE;
-    cmj_float fx = (TX_CMJ_VT(convert_float)(sm) + (TX_CMJ_VT(convert_float)(sy) + jx) / (float)n) / (float)m;
-    cmj_float fy = (TX_CMJ_VT(convert_float)(sd) + (TX_CMJ_VT(convert_float)(sx) + jy) / (float)m) / (float)n;
-    TX_CMJ_VT(vstore)(fx, 0, x);
-    TX_CMJ_VT(vstore)(fy, 0, y);
+    cmj_float jx = TX_CMJ_TO_FLOAT(bx) * TX_CMJ_RANDSCALE;
+    cmj_float jy = TX_CMJ_TO_FLOAT(by) * TX_CMJ_RANDSCALE;
+    cmj_float fx = (TX_CMJ_TO_FLOAT(sm) + (TX_CMJ_TO_FLOAT(sy) + jx) / (float)n) / (float)m;
+    cmj_float fy = (TX_CMJ_TO_FLOAT(sd) + (TX_CMJ_TO_FLOAT(sx) + jy) / (float)m) / (float)n;
+    TX_CMJ_STORE(fx, x);
+    TX_CMJ_STORE(fy, y);
 }
 #endif
 

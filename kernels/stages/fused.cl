@@ -97,7 +97,7 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
             ls[j] = sample0 + kk - lp[j] * nsamples;
             lpat[j] = pattern[lp[j]];
         }
-        if (jitter) cmj_sample_packet(TX_CMJ_VT(vload)(0, ls), spp, grid_m, TX_CMJ_VT(vload)(0, lpat), jx, jy);
+        if (jitter) cmj_sample_packet(TX_CMJ_LOAD(ls), spp, grid_m, TX_CMJ_LOAD(lpat), jx, jy);
 #else
         for (uint j = 0; j < (uint)TX_CHUNK; ++j)
             lp[j] = 0u;

@@ -6,6 +6,8 @@ lower triangle index, whatever the order), per-ray intervals, every primitive ki
 lane-by-lane path); and the fused kernel's images do not depend on the packet width. The
 scalar traversals are held to float64 references in test_traversal.py; the packets are
 held to them here."""
+import dataclasses
+
 import numpy as np
 import pytest
 import trimesh
@@ -311,15 +313,22 @@ def test_packet_rule():
     """Packets where they measured faster: PoCL, shadows on; at any spp, several pixels per
     work-item where one pixel's samples leave lanes empty (pixels_per_item: the fewest packets
     per pixel, then the fewest pixels), adaptive sampling's rounds too (pixels from its
-    list). Intel's runtime: only when forced (TEXRAY_PACKET), for its slow packet builds."""
+    list); 16 lanes for scenes of triangles alone, 8 with any other kind, displacement or
+    instances. Intel's runtime: only when forced (TEXRAY_PACKET), for its slow packet builds."""
     from texray.device.features import pixels_per_item
-    tri = Features(shadows=True, triangles=True)
-    ada = Features(shadows=True, triangles=True, adaptive=True)
-    assert [packet_width(tri, "pocl", n) for n in (1, 2, 3, 4, 16)] == [8] * 5
-    assert [pixels_per_item(tri, "pocl", n) for n in (1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 16, 20, 24)] == \
+    mix = Features(shadows=True, triangles=True, spheres=True)
+    ada = Features(shadows=True, quads=True, triangles=False, adaptive=True)
+    assert [packet_width(mix, "pocl", n) for n in (1, 2, 3, 4, 16)] == [8] * 5
+    assert [pixels_per_item(mix, "pocl", n) for n in (1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 16, 20, 24)] == \
         [8, 4, 8, 2, 8, 4, 8, 1, 8, 2, 1, 2, 1]
     assert [packet_width(ada, "pocl", n) for n in (1, 3, 4, 8)] == [8, 8, 8, 8]
     assert [pixels_per_item(ada, "pocl", n) for n in (1, 3, 4, 8)] == [8, 8, 2, 1]
+    tri = Features(shadows=True, triangles=True, vertex_normals=True, textures=True, adaptive=True)
+    assert [packet_width(tri, "pocl", n) for n in (1, 4, 16)] == [16] * 3
+    assert [pixels_per_item(tri, "pocl", n) for n in (1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 16, 20, 24, 32)] == \
+        [16, 8, 16, 4, 16, 8, 16, 2, 16, 4, 1, 4, 2, 1]
+    for other in ("spheres", "cylinders", "quads", "displacement", "displaced_meshes", "instances"):
+        assert packet_width(dataclasses.replace(tri, **{other: True}), "pocl", 16) == 8, other
     assert packet_width(tri, "nvidia", 16) == 0 and pixels_per_item(tri, "nvidia", 1) == 1
     assert packet_width(tri, "intel-cpu", 16) == 0 and pixels_per_item(tri, "intel-cpu", 1) == 1
     assert packet_width(tri, None, 16) == 0
@@ -337,12 +346,53 @@ def test_renders_choose_packets_by_samples_per_launch(device, monkeypatch):
     assert launch_samples(64, 48, 16) == 16 and launch_samples(64, 48, 64, adaptive=0.1) == 8
     assert launch_samples(64, 48, 3) == 3
     scene = tx.load_scene(tx_scene("bench/textured_meshes.toml"))
-    width = {"pocl": 8}.get(runtime(device).kind, 0)
+    width = {"pocl": 16}.get(runtime(device).kind, 0)           # triangles alone: 16 lanes
     assert [tx.render(scene, 16, 12, spp, device=device).stats["packet"] for spp in (1, 4, 16)] == [width] * 3
     assert tx.render(scene, 16, 12, 3, device=device, adaptive=0.1).stats["packet"] == width
     assert tx.render(scene, 16, 12, 64, device=device, adaptive=0.1).stats["packet"] == width
+    width = {"pocl": 8}.get(runtime(device).kind, 0)
     assert tx.render(tx.load_scene(tx_scene("bench/globe.toml")), 16, 12, 16, device=device).stats["packet"] == width
     assert tx.render(scene, 16, 12, 16, device=device, shadows=False).stats["packet"] == 0
+
+
+# A child process: the scene rendered at 16 lanes on PoCL, its image's bytes as hex.
+_RENDER_16 = r"""
+import hashlib, sys
+import texray as tx
+img = tx.render(tx.load_scene(sys.argv[1]), 24, 16, 4, device="pocl")
+assert img.stats["packet"] == 16, img.stats["packet"]
+print(hashlib.sha256(img.rgb.tobytes()).hexdigest())
+"""
+
+
+@pytest.mark.parametrize("name", ["textured_meshes", "mixed"])
+def test_sixteen_lane_programs_load_again_from_the_driver_cache(tmp_path, name):
+    """PoCL's program at 16 lanes, built in one process, loads from PoCL's cache in the next and
+    renders the same image: on an AVX2 target with PoCL's AVX-512 library, calls of its 16-lane
+    vstore16/vload16/convert_float16 once left a cached program without kernels (and aborted
+    code generation; core/builtins.h). Triangles, spheres and quads (mixed), each packet test."""
+    import os
+    import subprocess
+    import sys
+    from texray.device import devices
+    if not any("portable computing language" in d.platform.lower() for d in devices()):
+        pytest.skip("no PoCL device")
+    env = dict(os.environ, POCL_CACHE_DIR=str(tmp_path / "pocl"), TEXRAY_PACKET="16")
+    scene = str(tx_scene(f"bench/{name}.toml"))
+    runs = [subprocess.run([sys.executable, "-c", _RENDER_16, scene], env=env, capture_output=True, text=True)
+            for _ in range(2)]
+    for i, r in enumerate(runs):
+        assert r.returncode == 0, f"run {i + 1} (cache {'empty' if i == 0 else 'filled'}):\n{r.stderr[-3000:]}"
+    assert list((tmp_path / "pocl").rglob("program.bc")), "PoCL cached no program"
+    assert runs[0].stdout.split()[-1] == runs[1].stdout.split()[-1]
+
+
+def test_a_program_without_kernels_is_a_build_error(rt):
+    """A program that builds but holds no kernels (how a cached binary that did not load looked:
+    clCreateKernel's INVALID_KERNEL_NAME later) is a BuildError naming the device."""
+    from texray.errors import BuildError
+    with pytest.raises(BuildError, match=f"on {rt.device.name.strip()}.*no kernels"):
+        rt.build("/* no kernel */\n", ["-DTX_NO_KERNEL_PROBE=1"])
 
 
 def test_packet_override_is_checked(monkeypatch):

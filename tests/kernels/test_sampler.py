@@ -130,7 +130,7 @@ __kernel void packet_vs_scalar(__global const uint* s, __global const uint* N, _
     float x[TX_PACKET], y[TX_PACKET];
     uint sl[TX_PACKET], pl[TX_PACKET];
     for (uint j = 0; j < TX_PACKET; ++j) { sl[j] = s[TX_PACKET * i + j]; pl[j] = p[TX_PACKET * i + j]; }
-    cmj_sample_packet(TX_CMJ_VT(vload)(0, sl), N[i], m, TX_CMJ_VT(vload)(0, pl), x, y);
+    cmj_sample_packet(TX_CMJ_LOAD(sl), N[i], m, TX_CMJ_LOAD(pl), x, y);
     __global float* o = out + 4 * TX_PACKET * i;
     for (uint j = 0; j < TX_PACKET; ++j) {
         float2 v = cmj_sample_m(sl[j], N[i], m, pl[j]);

@@ -112,13 +112,30 @@ def max_lights_for(n: int) -> int:
 # build of the showcase's program: 47 s against 14 s; the globe's 4.7 against 2.2), so the
 # packets stay the user's choice there (2026-12-03, this Xeon; README, Performance).
 PACKET_WIDTHS = {"pocl": 8}
+# Scenes of triangles alone (no other primitive kind, displacement or instances) take 16 lanes
+# there: after the uniform shear (accel/packet.h triangle_packet), 16 lanes took 0.84-0.92 of
+# the frame time of 8 on the textured meshes at 1 to 16 spp and 0.96 on the 1M-triangle mesh,
+# while scenes with spheres or quads ran as fast or slower (globe 1.02, grazing quad 1.04-1.2,
+# showcase 1.03, mixed 1.00; 2026-12-04, a Xeon, medians of 5 frames, TEXRAY_PACKET=8|16). On an
+# AMD EPYC, where PoCL's LLVM 14 emits AVX2 (-target-cpu znver3), the same: textured meshes 0.83
+# at 16 spp and 0.88 at 4, the 1M-triangle mesh 0.96; globe 0.98, brick wall 0.99, mixed 0.99,
+# grazing quad 1.05 (512x384, medians of 3-5 interleaved rounds of 5 frames).
+PACKET_WIDTHS_TRIANGLES = {"pocl": 16}
 PACKET_MIN_SAMPLES = 4        # the samples per launch the rules assume when not told
+
+
+def triangles_only(f: Features) -> bool:
+    """Whether triangles are the scene's only primitives (no other kind, no displacement, no
+    instances): the scenes whose packets are 16 wide on PoCL (:data:`PACKET_WIDTHS_TRIANGLES`)."""
+    return f.triangles and not (f.spheres or f.cylinders or f.quads or f.displacement or f.displaced_meshes
+                                or f.instances)
 
 
 def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES) -> int:
     """TX_PACKET for a program of features ``f`` on a device of ``device_kind``
     (``texray.device.opencl``'s kinds) whose fused launches sum ``samples`` samples per
-    pixel: the kind's width from :data:`PACKET_WIDTHS` at any count (:func:`pixels_per_item`
+    pixel: the kind's width from :data:`PACKET_WIDTHS` (:data:`PACKET_WIDTHS_TRIANGLES` for
+    scenes of triangles alone, :func:`triangles_only`) at any count (:func:`pixels_per_item`
     fills the lanes), with shadow rays; else 0 (no packets). ``TEXRAY_PACKET`` (0, 8 or 16)
     overrides the rule for A/B runs. The images are the same whatever the width (accel/packet.h says when a
     closest hit may differ: within rounding of another hit; no scene's image did)."""
@@ -128,7 +145,7 @@ def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN
             raise DeviceError(f"TEXRAY_PACKET: expected 0, 8 or 16, got {override!r}")
         width = int(override)
     else:
-        width = PACKET_WIDTHS.get(device_kind, 0)
+        width = (PACKET_WIDTHS_TRIANGLES if triangles_only(f) else PACKET_WIDTHS).get(device_kind, 0)
     return width if f.shadows else 0
 
 

@@ -256,9 +256,25 @@ class Runtime:
                 except cl.Error as e:   # pyopencl's build failure carries the compiler log in its message
                     raise BuildError(f"OpenCL build failed on {self.device.name.strip()} with options "
                                      f"{' '.join(options)}:\n{e}") from None
+                _check_kernels(prg, self.device, options)
                 self.build_log.append((tuple(options), time.perf_counter() - t0))
                 self._programs[key] = prg
         return prg
+
+
+def _check_kernels(prg: cl.Program, device, options) -> None:
+    """BuildError where a program that built has no kernels: a driver's cached binary that did
+    not load (PoCL once cached 16-lane programs that LLVM could not read back, core/builtins.h),
+    which would otherwise surface later as INVALID_KERNEL_NAME on a kernel that exists."""
+    try:
+        names = prg.get_info(cl.program_info.KERNEL_NAMES)
+    except cl.Error:                     # a driver without the query: nothing to check
+        return
+    if not names.strip(";"):
+        cache = os.environ.get("POCL_CACHE_DIR", "~/.cache/pocl")
+        raise BuildError(f"OpenCL build on {device.name.strip()} with options {' '.join(options)} gave a "
+                         f"program with no kernels; if the driver keeps a cache of built programs (PoCL: "
+                         f"{cache}), it may hold one that does not load: remove it and run again")
 
 
 def opencl_prelude() -> str:
