@@ -1,7 +1,7 @@
 """A/B frame times of two checkouts of texray, interleaved, in fresh processes.
 
     python tools/ab.py BASE NEW [SCENE.toml ...] [--size 512x384] [--spp 8] [--rounds 3]
-                       [--frames 5] [--device pocl]
+                       [--frames 5] [--device pocl] [--base-env K=V ...] [--new-env K=V ...]
 
 BASE and NEW are source trees (a `git worktree add /tmp/base <commit>` of the commit
 before, and this one). Each round renders each scene once with BASE's host code and
@@ -9,7 +9,10 @@ kernels, then with NEW's, each in its own process (one warm-up frame, then the m
 ``--frames`` frames' ``stats["render_s"]``), so that both see the same machine load;
 it prints every round's times and the median of the rounds' ratios NEW / BASE (< 1:
 NEW is faster). The default scenes are the bench's globe, textured meshes, bumped
-brick wall and grazing quad.
+brick wall and grazing quad. ``--base-env``/``--new-env`` set environment variables in
+one side's processes, so that one tree A/Bs a setting:
+
+    python tools/ab.py . . scenes/bench/textured_meshes.toml --base-env TEXRAY_PACKET=8 --new-env TEXRAY_PACKET=16
 """
 from __future__ import annotations
 
@@ -42,9 +45,10 @@ print(json.dumps(statistics.median(ts)))
 """
 
 
-def frame_time(tree: Path, scene: Path, size, spp, frames, device) -> float:
-    env = dict(os.environ, PYTHONPATH=str(tree / "pyhost"))
-    out = subprocess.run([sys.executable, "-c", _CHILD, str(tree), str(scene), str(size[0]), str(size[1]),
+def frame_time(tree: Path, scene: Path, size, spp, frames, device, extra_env=()) -> float:
+    env = dict(os.environ, PYTHONPATH=str(tree.resolve() / "pyhost"))
+    env.update(extra_env)
+    out = subprocess.run([sys.executable, "-c", _CHILD, str(tree.resolve()), str(scene), str(size[0]), str(size[1]),
                           str(spp), str(frames), device], env=env, capture_output=True, text=True, cwd="/")
     if out.returncode != 0:
         raise SystemExit(f"ab: {tree} on {scene} failed:\n{out.stderr[-2000:]}")
@@ -62,7 +66,20 @@ def main(argv=None):
     ap.add_argument("--frames", type=int, default=5)
     ap.add_argument("--device", default="Portable Computing Language",
                     help="device name (default PoCL's platform, which every version matches)")
+    ap.add_argument("--base-env", action="append", default=[], metavar="K=V",
+                    help="an environment variable of BASE's processes (repeatable)")
+    ap.add_argument("--new-env", action="append", default=[], metavar="K=V",
+                    help="an environment variable of NEW's processes (repeatable)")
     a = ap.parse_args(argv)
+    envs = []
+    for opt, items in (("--base-env", a.base_env), ("--new-env", a.new_env)):
+        env = {}
+        for item in items:
+            key, eq, value = item.partition("=")
+            if not eq or not key:
+                ap.error(f"{opt}: expected K=V, got {item!r}")
+            env[key] = value
+        envs.append(env)
     size = tuple(int(v) for v in a.size.lower().split("x"))
     for tree in (a.base, a.new):
         if not (tree / "kernels" / "texray.cl").is_file() or not (tree / "pyhost" / "texray").is_dir():
@@ -70,8 +87,8 @@ def main(argv=None):
     for scene in [s.resolve() for s in a.scenes] or DEFAULT_SCENES:
         ratios = []
         for r in range(a.rounds):
-            tb = frame_time(a.base, scene, size, a.spp, a.frames, a.device)
-            tn = frame_time(a.new, scene, size, a.spp, a.frames, a.device)
+            tb = frame_time(a.base, scene, size, a.spp, a.frames, a.device, envs[0])
+            tn = frame_time(a.new, scene, size, a.spp, a.frames, a.device, envs[1])
             ratios.append(tn / tb)
             print(f"{scene.stem:18s} round {r + 1}: base {tb * 1e3:8.1f} ms  new {tn * 1e3:8.1f} ms  "
                   f"new/base {tn / tb:.3f}", flush=True)
