@@ -46,9 +46,9 @@ print(json.dumps(statistics.median(ts)))
 
 
 def frame_time(tree: Path, scene: Path, size, spp, frames, device, extra_env=()) -> float:
-    env = dict(os.environ, PYTHONPATH=str(tree.resolve() / "pyhost"))
-    env.update(extra_env)
-    out = subprocess.run([sys.executable, "-c", _CHILD, str(tree.resolve()), str(scene), str(size[0]), str(size[1]),
+    tree = tree.resolve()
+    env = dict(os.environ, PYTHONPATH=str(tree / "pyhost"), **dict(extra_env))
+    out = subprocess.run([sys.executable, "-c", _CHILD, str(tree), str(scene), str(size[0]), str(size[1]),
                           str(spp), str(frames), device], env=env, capture_output=True, text=True, cwd="/")
     if out.returncode != 0:
         raise SystemExit(f"ab: {tree} on {scene} failed:\n{out.stderr[-2000:]}")

@@ -134,30 +134,20 @@ __attribute__((overloadable)) inline int tx_all(int16 v) { return tx_all(v.lo & 
  * With these, and the inline versions above, no 16-lane value reaches the library
  * (tests/kernels/test_packet.py builds the 16-lane program twice, the second from the
  * cache; 2026-12-04, pocl-binary-distribution 3.0). */
-__attribute__((overloadable)) inline void tx_vstore16(float16 v, size_t o, float* p)
-{
-    vstore8(v.lo, 2 * o, p); vstore8(v.hi, 2 * o + 1, p);
-}
-__attribute__((overloadable)) inline void tx_vstore16(int16 v, size_t o, int* p)
-{
-    vstore8(v.lo, 2 * o, p); vstore8(v.hi, 2 * o + 1, p);
-}
-__attribute__((overloadable)) inline float16 tx_vload16(size_t o, const float* p)
-{
-    return (float16)(vload8(2 * o, p), vload8(2 * o + 1, p));
-}
-__attribute__((overloadable)) inline void tx_vstore16(float16 v, size_t o, __global float* p)
-{
-    vstore8(v.lo, 2 * o, p); vstore8(v.hi, 2 * o + 1, p);
-}
-__attribute__((overloadable)) inline float16 tx_vload16(size_t o, const __global float* p)
-{
-    return (float16)(vload8(2 * o, p), vload8(2 * o + 1, p));
-}
-__attribute__((overloadable)) inline uint16 tx_vload16(size_t o, const uint* p)
-{
-    return (uint16)(vload8(2 * o, p), vload8(2 * o + 1, p));
-}
+#define TX_HALVES16(T, AS)                                                                        \
+    __attribute__((overloadable)) inline void tx_vstore16(T##16 v, size_t o, AS T* p)             \
+    {                                                                                             \
+        vstore8(v.lo, 2 * o, p); vstore8(v.hi, 2 * o + 1, p);                                     \
+    }                                                                                             \
+    __attribute__((overloadable)) inline T##16 tx_vload16(size_t o, const AS T* p)                \
+    {                                                                                             \
+        return (T##16)(vload8(2 * o, p), vload8(2 * o + 1, p));                                   \
+    }
+TX_HALVES16(float, __private)
+TX_HALVES16(int, __private)
+TX_HALVES16(uint, __private)
+TX_HALVES16(float, __global)
+#undef TX_HALVES16
 /* Round to nearest even in either form: the same floats. */
 __attribute__((overloadable)) inline float16 tx_convert_float16(uint16 v)
 {

@@ -7,6 +7,9 @@ lane-by-lane path); and the fused kernel's images do not depend on the packet wi
 scalar traversals are held to float64 references in test_traversal.py; the packets are
 held to them here."""
 import dataclasses
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -371,9 +374,6 @@ def test_sixteen_lane_programs_load_again_from_the_driver_cache(tmp_path, name):
     renders the same image: on an AVX2 target with PoCL's AVX-512 library, calls of its 16-lane
     vstore16/vload16/convert_float16 once left a cached program without kernels (and aborted
     code generation; core/builtins.h). Triangles, spheres and quads (mixed), each packet test."""
-    import os
-    import subprocess
-    import sys
     from texray.device import devices
     if not any("portable computing language" in d.platform.lower() for d in devices()):
         pytest.skip("no PoCL device")
