@@ -34,10 +34,10 @@ def _shape(kind, d, partial=False):
                        axis_x=(1, 0, 0), theta_range=(30, 280) if partial else (0, 360), material=m)
 
 
-def _tracer(shape):
+def _tracer(shape, device):
     s = tx.Scene(camera=tx.Camera(eye=(0, 0.5, 4), look_at=(0, 0, 0)), ambient=(0.1, 0.1, 0.1))
     s.add(shape)
-    return Tracer(s, "pocl")
+    return Tracer(s, device)
 
 
 def _frame(shape, u, v):
@@ -81,24 +81,24 @@ def _compare(tracer, shape, d, orgs, dirs, agree_min=0.99, good_min=0.99, sample
 
 @pytest.mark.parametrize("kind", ["sphere", "cylinder"])
 @pytest.mark.parametrize("elev", [70, 40, 15, 4])
-def test_maxmip_matches_float64_root_finder(kind, elev):
+def test_maxmip_matches_float64_root_finder(kind, elev, device):
     d = tx.Displacement(_sines(), scale=SCALE, method="maxmip")
     shape = _shape(kind, d)
     rng = np.random.default_rng(elev)
     u, v = rng.uniform(0, 1, 300), rng.uniform(0.1, 0.9, 300)
     orgs, dirs = _grazing_rays(shape, elev, u, v)
-    t, tr = _compare(_tracer(shape), shape, d, orgs, dirs)
+    t, tr = _compare(_tracer(shape, device), shape, d, orgs, dirs)
     assert (~np.isnan(tr)).mean() > 0.5
 
 
 @pytest.mark.parametrize("kind", ["sphere", "cylinder"])
-def test_maxmip_from_inside_the_shell_at_the_seam_and_the_poles(kind):
+def test_maxmip_from_inside_the_shell_at_the_seam_and_the_poles(kind, device):
     """Origins inside the shell (above and below the surface) with random directions; rays at
     grazing and steep angles toward points within 0.01 of the seam u = 0 / 1; for the
     sphere, toward points within 3 degrees of either pole and rays through the axis."""
     d = tx.Displacement(_sines(), scale=SCALE, method="maxmip")
     shape = _shape(kind, d)
-    tracer = _tracer(shape)
+    tracer = _tracer(shape, device)
     rng = np.random.default_rng(7)
     n = 300
     u, v = rng.uniform(0, 1, n), rng.uniform(0.05, 0.95, n)
@@ -126,14 +126,14 @@ def test_maxmip_from_inside_the_shell_at_the_seam_and_the_poles(kind):
 
 
 @pytest.mark.parametrize("kind", ["sphere", "cylinder"])
-def test_maxmip_agrees_with_a_fine_search(kind):
+def test_maxmip_agrees_with_a_fine_search(kind, device):
     """maxmip against the search at N = 1024, M = 12 on the same rays (70 to 4 degrees)."""
     rng = np.random.default_rng(11)
     hits = {}
     for method in ("maxmip", "search"):
         d = tx.Displacement(_sines(), scale=SCALE, method=method, steps=1024, refine=12)
         shape = _shape(kind, d)
-        tracer = _tracer(shape)
+        tracer = _tracer(shape, device)
         ts = []
         for elev in (70, 30, 10, 4):
             r = np.random.default_rng(elev)
@@ -143,18 +143,18 @@ def test_maxmip_agrees_with_a_fine_search(kind):
     first_hits_agree(hits["maxmip"], hits["search"], T_FINE)
 
 
-def test_maxmip_on_a_partial_cylinder():
+def test_maxmip_on_a_partial_cylinder(device):
     """theta_range (30, 280): rays through the gap see no surface there; hits as the reference."""
     d = tx.Displacement(_sines(), scale=SCALE, method="maxmip")
     shape = _shape("cylinder", d, partial=True)
     rng = np.random.default_rng(5)
     for elev in (60, 10):
         orgs, dirs = _grazing_rays(shape, elev, rng.uniform(0, 1, 300), rng.uniform(0.1, 0.9, 300), back=2.0)
-        _compare(_tracer(shape), shape, d, orgs, dirs)
+        _compare(_tracer(shape, device), shape, d, orgs, dirs)
 
 
 @pytest.mark.parametrize("kind", ["sphere", "cylinder"])
-def test_maxmip_never_misses_one_texel_spikes(kind):
+def test_maxmip_never_misses_one_texel_spikes(kind, device):
     """One-texel spikes on a flat map; grazing rays aimed just below each spike's top: maxmip
     hits every one (its traversal skips only cells that cannot hold a root), the reference
     agrees, and a coarse search (N = 4) misses some."""
@@ -166,7 +166,7 @@ def test_maxmip_never_misses_one_texel_spikes(kind):
         p, nrm, t = _frame(shape, u, v)
         dirs = np.cos(np.radians(8)) * t - np.sin(np.radians(8)) * nrm
         orgs = p + 0.09 * nrm - 0.8 * dirs
-        th, _ = trace_each(_tracer(shape), orgs, dirs)
+        th, _ = trace_each(_tracer(shape, device), orgs, dirs)
         found[method] = ~np.isnan(th)
         if method == "maxmip":
             tr, _ = curved_reference(shape, d, orgs, dirs, samples=100000)
@@ -177,7 +177,7 @@ def test_maxmip_never_misses_one_texel_spikes(kind):
 
 
 @pytest.mark.parametrize("kind", ["sphere", "cylinder"])
-def test_maxmip_shadows_as_the_search(kind):
+def test_maxmip_shadows_as_the_search(kind, device):
     """Any-hit rays (self-shadowing) from points just above the displaced surface (maxmip's
     hits, 2e-4 up the radius, so that the side the ray starts on is not rounding's) toward
     lights 3 to 60 degrees above the base surface's tangent plane, from points in the shell and from outside: occluded exactly where the fine search says
@@ -188,7 +188,7 @@ def test_maxmip_shadows_as_the_search(kind):
     for method in ("maxmip", "search"):
         d = tx.Displacement(_sines(), scale=SCALE, method=method, steps=1024, refine=12)
         shape = _shape(kind, d)
-        tracers[method] = _tracer(shape)
+        tracers[method] = _tracer(shape, device)
     u, v = r.uniform(0, 1, 400), r.uniform(0.1, 0.9, 400)
     orgs, dirs = _grazing_rays(shape, 30, u, v)
     t, _ = trace_each(tracers["maxmip"], orgs, dirs)
@@ -210,7 +210,7 @@ def test_maxmip_shadows_as_the_search(kind):
 
 @pytest.mark.parametrize("kind", ["sphere", "cylinder"])
 @pytest.mark.parametrize("heights", ["zero", "one", "single"])
-def test_maxmip_constant_maps_are_the_shape_at_their_height(kind, heights):
+def test_maxmip_constant_maps_are_the_shape_at_their_height(kind, heights, device):
     """All-zero and all-one maps and a 1x1 texture (a pyramid of one level): the sphere or
     cylinder of radius r + H, hit where the analytic shape is, from outside (80 to 5 degrees
     above it) and from inside the shell, below the surface, outward."""
@@ -218,7 +218,7 @@ def test_maxmip_constant_maps_are_the_shape_at_their_height(kind, heights):
     d = tx.Displacement(_tex(a), scale=0.1, offset=0.02, method="maxmip")
     level = 0.02 + 0.1 * float(a.flat[0])
     shape = _shape(kind, d)
-    tracer = _tracer(shape)
+    tracer = _tracer(shape, device)
     rng = np.random.default_rng(1)
     p, n, tang = _frame(shape, rng.uniform(0, 1, 200), rng.uniform(0.1, 0.9, 200))
     c, r, _, az = shape.world()[:4]
@@ -246,7 +246,7 @@ def test_maxmip_constant_maps_are_the_shape_at_their_height(kind, heights):
         np.testing.assert_allclose(t[hit & sure], te[hit & sure], rtol=1e-5, atol=1e-6)
 
 
-def test_maxmip_aovs_and_shading_as_the_search():
+def test_maxmip_aovs_and_shading_as_the_search(device):
     """A displaced sphere and cylinder rendered by maxmip and by a fine search (N = 512,
     M = 12): the same first hits, and the AOVs that report the displaced hit (depth,
     position, uv, shading normal) and the shaded colour agree on 99% of the pixels."""
@@ -258,7 +258,7 @@ def test_maxmip_aovs_and_shading_as_the_search():
         s.add(tx.Sphere(center=(-0.8, 0, 0), radius=0.6, axis_z=(0, 1, 0), material=tx.Material(displacement=d)))
         s.add(tx.Cylinder(radius=0.5, z_range=(-0.8, 0.8), origin=(0.8, 0, 0), axis_z=(0, 1, 0),
                           material=tx.Material(displacement=d)))
-        out[method] = tx.render(s, 96, 72, 1, device="pocl", jitter=False,
+        out[method] = tx.render(s, 96, 72, 1, device=device, jitter=False,
                                 aovs=("depth", "position", "uv", "shading_normal"))
     both = aovs_agree(out["maxmip"], out["search"], uv_wraps=True)          # u wraps at the seam
     assert both.mean() > 0.2                     # the two shapes cover a quarter of the image
