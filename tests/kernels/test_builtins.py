@@ -4,6 +4,8 @@
   tx_copysign, tx_sqrt, tx_rsqrt and vload3 return the very bits of PoCL's builtins, on
   every special value (zeros, denormals, the float range's ends, infinities, NaNs) and a
   million random bit patterns: the images keep their bits;
+* core/builtins.h's exp2 and log2 (PoCL only): within 1.5 ulp of float64 (measured: exp2
+  0.84, log2 1.17), every special value as C99 says, denormal results of exp2 within one denormal;
 * core/transcendental.h (every device): tx_atan2 within 4 ulp of float64 atan2 (measured
   on PoCL: at most 2 ulp), tx_hypot within 1.5 ulp of float64 hypot (measured: 1.16), both at
   any scale (from denormals to FLT_MAX) and on C99's special values.
@@ -84,6 +86,15 @@ __kernel void vector(__global const float* x, __global const float* y, __global 
     }
 }
 
+
+/* exp2 and log2 (core/builtins.h's, on PoCL) of x: out[2i], out[2i + 1]. */
+__kernel void explog(__global const float* x, __global const float* y, __global float* out, uint n)
+{
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    out[2 * i] = exp2(x[i]);
+    out[2 * i + 1] = log2(x[i]);
+}
 """
 
 _SPECIAL = np.array([0.0, -0.0, 1e-45, -1e-45, 1.1754942e-38, 1.1754944e-38, -1.1754944e-38, 0.5, 1.0, -1.0,
@@ -213,3 +224,39 @@ def test_special_values(rt, y, x, atan2, hypot):
             assert np.isnan(got)
         else:
             assert got == pytest.approx(np.float32(want), rel=3e-7, abs=1.5e-45) and np.signbit(got) == np.signbit(want)
+
+
+def test_pocl_exp2_and_log2_against_float64(rt, rng):
+    if "-DTX_POCL=1" not in rt.device_defines:
+        pytest.skip("core/builtins.h replaces exp2 and log2 on PoCL only")
+    n = 1 << 20
+    ex = rng.uniform(-152, 130, n)                                   # every exponent, denormal results, overflow
+    ex[: n // 4] = rng.uniform(-1, 1, n // 4)                        # around 2^0 (specular exponents' range)
+    lx = rng.integers(0, 0x7f800000, n, dtype=np.uint64).astype(np.uint32).view(np.float32)   # every positive float
+    lx[: n // 4] = rng.uniform(0.5, 2.0, n // 4)                     # around 1, where log2 is near 0
+    x = np.concatenate([ex.astype(np.float32), lx, _SPECIAL, np.float32([-150, -149.5, -149, -126.5, -126, 127.5,
+                                                                            127.99999, 128, np.nextafter(1, 2, dtype=np.float32),
+                                                                            np.nextafter(1, 0, dtype=np.float32), 1.4142135])])
+    out = _run(rt, "explog", x, x, 2, _POCL_KERNELS)
+    x64 = x.astype(np.float64)
+    with np.errstate(all="ignore"):
+        want_e, want_l = np.exp2(x64), np.log2(x64)
+        over = want_e.astype(np.float32) == np.inf           # float64's result rounds above FLT_MAX
+    tiny = np.finfo(np.float32).tiny
+    # exp2: 1.5 ulp where the result is normal and finite; one denormal step below FLT_MIN;
+    # overflow to +inf exactly where float64's result rounds above FLT_MAX.
+    normal = (want_e >= tiny) & ~over
+    assert _ulps(out[normal, 0], want_e[normal]).max() <= 1.5
+    sub = (want_e < tiny) & ~np.isnan(x64)
+    assert np.abs(out[sub, 0] - want_e[sub]).max() <= 2.0 ** -149 and (out[sub, 0] >= 0).all()
+    assert np.all(out[over, 0] == np.inf) and np.all(out[~over & ~np.isnan(x64), 0] < np.inf)
+    # log2: 1.5 ulp (near 1, where the result nears 0, in ulps of at least 2^-47).
+    fin = np.isfinite(want_l) & (x64 > 0)
+    ulp = np.maximum(np.spacing(np.abs(want_l[fin]).astype(np.float32)).astype(np.float64), 2.0 ** -47)
+    assert (np.abs(out[fin, 1] - want_l[fin]) / ulp).max() <= 1.5
+    # Special values, as C99 (and PoCL's own) say.
+    for v, e2, l2 in ((0.0, 1.0, -np.inf), (-0.0, 1.0, -np.inf), (np.inf, np.inf, np.inf), (-np.inf, 0.0, np.nan),
+                      (np.nan, np.nan, np.nan), (-1.0, 0.5, np.nan), (1.0, 2.0, 0.0), (-1e-45, 1.0, np.nan)):
+        got = _run(rt, "explog", np.float32([v]), np.float32([v]), 2, _POCL_KERNELS)[0]
+        for g, w in ((got[0], e2), (got[1], l2)):
+            assert (np.isnan(g) and np.isnan(w)) or g == w, (v, g, w)
