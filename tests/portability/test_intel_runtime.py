@@ -3,8 +3,10 @@ ICD loader (texray.device.icd) and the images it renders.
 
 Registration, unit-level with fake libraries and vendor directories in a temporary
 directory: the vendor directory texray writes lists every ICD the loader read before
-plus Intel's; a user's OCL_ICD_VENDORS directory keeps all it lists, a file is left
-alone, TEXRAY_NO_ICD=1 and an Intel runtime the loader finds already change nothing.
+plus Intel's (and NVIDIA's driver library where it is mounted without its ICD file); a
+user's OCL_ICD_VENDORS directory keeps all it lists, a file is left alone, TEXRAY_NO_ICD=1
+and a driver the loader finds already change nothing; a driver library that cannot load
+(an empty file) hides no device.
 
 Rendering, where the Intel device is present (the wheel installed): its compiler
 vectorizes kernels across work-items (16 wide with AVX-512, 8 with AVX2) and gave
@@ -62,8 +64,9 @@ def fake(tmp_path):
     return dict(lib=lib, grind=grind, system=system, prefix=prefix, cache=tmp_path / "cache", tmp=tmp_path)
 
 
-def _register(fake, environ):
-    return icd.register(environ, library=fake["lib"], cache_dir=fake["cache"], prefix_vendors=fake["prefix"])
+def _register(fake, environ, nvidia_dirs=()):
+    return icd.register(environ, library=fake["lib"], cache_dir=fake["cache"], prefix_vendors=fake["prefix"],
+                        nvidia_dirs=nvidia_dirs)
 
 
 def test_the_vendor_directory_lists_the_icds_visible_before_and_intels(fake):
@@ -112,7 +115,7 @@ def test_without_the_wheel_nothing_changes(fake, monkeypatch):
     monkeypatch.setattr(icd, "DISTRIBUTION", "no-such-distribution-texray")
     assert icd.find_runtime() is None
     env = {"OPENCL_VENDOR_PATH": str(fake["system"])}
-    assert icd.register(env, cache_dir=fake["cache"], prefix_vendors=fake["prefix"]) is None
+    assert icd.register(env, cache_dir=fake["cache"], prefix_vendors=fake["prefix"], nvidia_dirs=()) is None
     assert env == {"OPENCL_VENDOR_PATH": str(fake["system"])}
 
 
@@ -120,8 +123,72 @@ def test_an_unwritable_cache_registers_nothing(fake):
     blocked = fake["tmp"] / "blocked"
     blocked.write_text("a file where the cache directory would go")
     env = {"OPENCL_VENDOR_PATH": str(fake["system"])}
-    assert icd.register(env, library=fake["lib"], cache_dir=blocked / "icd", prefix_vendors=fake["prefix"]) is None
+    assert icd.register(env, library=fake["lib"], cache_dir=blocked / "icd", prefix_vendors=fake["prefix"],
+                        nvidia_dirs=()) is None
     assert "OCL_ICD_VENDORS" not in env
+
+
+def _nvidia(tmp_path, where="nvidia/lib64"):
+    lib = tmp_path / where / icd.NVIDIA_LIBRARY
+    lib.parent.mkdir(parents=True)
+    lib.write_bytes(b"")
+    return lib
+
+
+def test_nvidias_driver_mounted_without_its_icd_is_listed(fake, monkeypatch):
+    """A container's driver mount (/usr/local/nvidia/lib64 on the lent H200): the library,
+    no nvidia.icd. Listed with the ICDs visible before; with Intel's where both are found."""
+    nv = _nvidia(fake["tmp"])
+    monkeypatch.setattr(icd, "DISTRIBUTION", "no-such-distribution-texray")     # NVIDIA alone
+    env = {"OPENCL_VENDOR_PATH": str(fake["system"])}
+    vendors = icd.register(env, cache_dir=fake["cache"], prefix_vendors=fake["prefix"], nvidia_dirs=[str(nv.parent)])
+    assert env["OCL_ICD_VENDORS"] == str(vendors)
+    assert _listed(vendors) == sorted(["libpocl.so.2", str(fake["grind"]), str(nv)])
+    env = {"OPENCL_VENDOR_PATH": str(fake["system"])}
+    assert _listed(_register(fake, env, [str(nv.parent)])) == sorted(["libpocl.so.2", str(fake["grind"]),
+                                                                     str(fake["lib"]), str(nv)])
+
+
+def test_an_nvidia_icd_the_loader_reads_already_is_left_alone(fake):
+    nv = _nvidia(fake["tmp"])
+    _icd(fake["system"], "nvidia.icd", "libnvidia-opencl.so.1")         # the driver package's own, by soname
+    env = {"OPENCL_VENDOR_PATH": str(fake["system"])}
+    vendors = _register(fake, env, [str(nv.parent)])                   # Intel's still added, NVIDIA's not twice
+    assert _listed(vendors) == sorted(["libpocl.so.2", str(fake["grind"]), "libnvidia-opencl.so.1", str(fake["lib"])])
+    _icd(fake["system"], "intel.icd", fake["lib"])
+    env = {"OPENCL_VENDOR_PATH": str(fake["system"])}
+    assert _register(fake, env, [str(nv.parent)]) is None and "OCL_ICD_VENDORS" not in env
+
+
+def test_nvidias_library_is_looked_for_in_ld_library_path_then_the_driver_directories(tmp_path):
+    first, second = _nvidia(tmp_path, "a"), _nvidia(tmp_path, "b")
+    assert icd.find_nvidia({"LD_LIBRARY_PATH": f"relative/dir:{tmp_path / 'none'}:{second.parent}:{first.parent}"}) \
+        == second
+    assert icd.find_nvidia({}, dirs=[str(tmp_path / "none")]) is None
+    assert icd.find_nvidia({}, dirs=["a", str(first.parent)]) == first       # a relative directory is skipped
+    assert "/usr/local/nvidia/lib64" in icd.NVIDIA_DIRS
+
+
+def test_a_driver_library_that_cannot_load_hides_no_device(tmp_path):
+    """An NVIDIA library that is no driver (here an empty file: a machine without the GPU or
+    its kernel module) is registered, and the loader skips it: every device seen before is
+    still there."""
+    import subprocess
+    import sys
+    lib = _nvidia(tmp_path, "driver")
+    code = ("import json, texray.device.icd as i, texray.device as d; "
+            "print(json.dumps([i.registered is not None, sorted(x.name for x in d.devices())]))")
+    runs = []
+    for extra in ({"TEXRAY_NO_ICD": "1"}, {"LD_LIBRARY_PATH": str(lib.parent)}):
+        env = {k: v for k, v in os.environ.items() if k not in ("OCL_ICD_VENDORS", "LD_LIBRARY_PATH", "TEXRAY_NO_ICD")}
+        env.update(extra, XDG_CACHE_HOME=str(tmp_path / "cache"))
+        out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+        assert out.returncode == 0, out.stderr[-2000:]
+        runs.append(__import__("json").loads(out.stdout.strip().splitlines()[-1]))
+    assert runs[1][0], "nothing registered"
+    assert set(runs[0][1]) <= set(runs[1][1]) and runs[0][1]
+    listed = [p.read_text().strip() for p in (tmp_path / "cache" / "texray" / "icd").rglob("*.icd")]
+    assert str(lib) in listed
 
 
 def test_the_cache_root_follows_xdg(tmp_path):

@@ -1,5 +1,16 @@
 """Registers Intel's OpenCL CPU runtime with the OpenCL ICD loader, so that after
-``pip install 'texray[intel]'`` texray finds it without any environment set.
+``pip install 'texray[intel]'`` texray finds it without any environment set; and NVIDIA's
+OpenCL driver where a container or cluster mounts the driver without its ICD file.
+
+NVIDIA's driver ships ``libnvidia-opencl.so.1``, and its packages an
+``/etc/OpenCL/vendors/nvidia.icd`` naming it; a container runtime that mounts the
+driver's libraries (``/usr/local/nvidia/lib64`` on the machine this project was lent,
+an H200, 2026-12-04) often brings the library without the ICD file, and then OpenCL
+sees no GPU (there: only PoCL). :func:`find_nvidia` looks for the library in
+``LD_LIBRARY_PATH`` and the usual driver directories (:data:`NVIDIA_DIRS`); where the
+loader's directory names no ``libnvidia-opencl`` the vendor directory below lists it too.
+A library that cannot load (no GPU, a driver without its kernel module) costs nothing:
+the loader skips an ICD it cannot open.
 
 The wheel ``intel-opencl-rt`` installs ``libintelocl.so`` (into the environment's
 ``lib/``, beside ``libimf.so``, ``libsvml.so`` and TBB, which it finds through its
@@ -22,7 +33,7 @@ temporary directory) listing
   when the user set one, else ``OPENCL_VENDOR_PATH``'s or ``/etc/OpenCL/vendors``);
 * every ICD of the environment's own ``sys.prefix/etc/OpenCL/vendors`` (the default
   directory of conda's loader), so that no device visible before is hidden;
-* ``intel-cpu.icd`` naming the found library,
+* ``intel-cpu.icd`` naming the found library, ``nvidia.icd`` naming NVIDIA's,
 
 and points ``OCL_ICD_VENDORS`` at it. pyopencl's own ``.libs`` ICDs are not copied
 (its loader reads them anyway: a copy would list PoCL twice). An ICD naming an absolute
@@ -31,12 +42,13 @@ path that does not exist (those conda placeholders) is left out: it never loaded
 Nothing is changed (the environment is left as it is) when
 
 * ``TEXRAY_NO_ICD`` is set to anything but ``""`` or ``"0"``;
-* the wheel is not installed (no ``libintelocl.so`` found);
+* neither is found: the wheel is not installed (no ``libintelocl.so``) and no NVIDIA
+  library is found, or the loader's directory names each found one already;
 * the user's ``OCL_ICD_VENDORS`` names a file, not a directory (the loader then loads
   that one ICD only: an explicit choice of one driver);
 * a ``libintelocl.so`` is registered already in the directory the loader reads
   (a system-wide install, or this function's own directory inherited by a child
-  process);
+  process), and so is NVIDIA's library where it is found;
 * the cache directory cannot be written.
 
 ``PYOPENCL_CTX`` and ``device=`` still choose among the devices. Registration does not
@@ -55,6 +67,11 @@ from pathlib import Path
 DISTRIBUTION = "intel-opencl-rt"
 LIBRARY = "libintelocl.so"
 SYSTEM_VENDORS = Path("/etc/OpenCL/vendors")
+NVIDIA_LIBRARY = "libnvidia-opencl.so.1"
+NVIDIA_DIRS = ("/usr/local/nvidia/lib64", "/usr/local/nvidia/lib", "/usr/lib/x86_64-linux-gnu",
+               "/usr/lib/aarch64-linux-gnu", "/usr/lib64", "/usr/lib")
+"""Where NVIDIA's driver libraries are mounted (container runtimes, Kubernetes' device
+plugin) or installed (Debian/Ubuntu multiarch, RPM distributions), after LD_LIBRARY_PATH."""
 
 
 def find_runtime() -> Path | None:
@@ -66,6 +83,20 @@ def find_runtime() -> Path | None:
     for f in dist.files or ():
         if f.name == LIBRARY:
             p = Path(os.path.normpath(dist.locate_file(f)))
+            if p.is_file():
+                return p
+    return None
+
+
+def find_nvidia(environ=None, dirs=None) -> Path | None:
+    """NVIDIA's ``libnvidia-opencl.so.1``: the first in ``LD_LIBRARY_PATH``'s directories,
+    then :data:`NVIDIA_DIRS` (``dirs`` replaces both), or None."""
+    environ = os.environ if environ is None else environ
+    if dirs is None:
+        dirs = [*(environ.get("LD_LIBRARY_PATH") or "").split(os.pathsep), *NVIDIA_DIRS]
+    for d in dirs:
+        if d and os.path.isabs(d):
+            p = Path(d) / NVIDIA_LIBRARY
             if p.is_file():
                 return p
     return None
@@ -125,18 +156,23 @@ def _write_vendor_dir(root: Path, entries: list[tuple[str, str]]) -> Path:
     return final
 
 
-def register(environ=None, library=None, cache_dir=None, prefix_vendors=None) -> Path | None:
-    """Make ``library`` (default :func:`find_runtime`) visible to the ICD loader besides
-    every ICD visible now, by pointing ``environ["OCL_ICD_VENDORS"]`` (default
-    ``os.environ``) at a vendor directory under ``cache_dir`` (default
-    :func:`cache_root`, then the temporary directory). ``prefix_vendors`` is the
-    environment's own vendor directory (default ``sys.prefix/etc/OpenCL/vendors``).
-    Returns that directory, or None where it changes nothing (module docstring)."""
+def register(environ=None, library=None, cache_dir=None, prefix_vendors=None, nvidia_dirs=None) -> Path | None:
+    """Make ``library`` (default :func:`find_runtime`) and NVIDIA's OpenCL driver
+    (:func:`find_nvidia` over ``nvidia_dirs``) visible to the ICD loader besides every ICD
+    visible now, by pointing ``environ["OCL_ICD_VENDORS"]`` (default ``os.environ``) at a
+    vendor directory under ``cache_dir`` (default :func:`cache_root`, then the temporary
+    directory). ``prefix_vendors`` is the environment's own vendor directory (default
+    ``sys.prefix/etc/OpenCL/vendors``). Returns that directory, or None where it changes
+    nothing (module docstring)."""
     environ = os.environ if environ is None else environ
     if environ.get("TEXRAY_NO_ICD", "") not in ("", "0"):
         return None
     library = find_runtime() if library is None else Path(library)
-    if library is None:
+    nvidia = find_nvidia(environ, nvidia_dirs)
+    # (ICD file name, what an ICD's library name starts with when it is that driver, the library)
+    wanted = [w for w in (("intel-cpu.icd", LIBRARY, library), ("nvidia.icd", "libnvidia-opencl", nvidia))
+              if w[2] is not None]
+    if not wanted:
         return None
     loader_dir = _loader_dir(environ)
     if loader_dir is None:
@@ -149,13 +185,15 @@ def register(environ=None, library=None, cache_dir=None, prefix_vendors=None) ->
             lib = _library(icd)
             if lib is None or lib in seen or (os.path.isabs(lib) and not os.path.exists(lib)):
                 continue
-            if os.path.basename(lib) == LIBRARY and k == 0:
-                return None               # the loader finds an Intel runtime already
-            if os.path.basename(lib) == LIBRARY:
+            base = os.path.basename(lib)
+            if k == 1 and base == LIBRARY:
                 continue                  # ours replaces the environment's own
+            wanted = [w for w in wanted if not base.startswith(w[1])]     # listed already: not added again
             seen.add(lib)
             entries.append((f"{len(entries):02d}-{icd.name}", lib))
-    entries.append((f"{len(entries):02d}-intel-cpu.icd", str(library)))
+    if not wanted:
+        return None
+    entries += [(f"{len(entries) + i:02d}-{name}", str(lib)) for i, (name, _, lib) in enumerate(wanted)]
     if cache_dir is not None:
         roots = [Path(cache_dir)]
     else:
