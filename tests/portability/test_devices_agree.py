@@ -40,12 +40,14 @@ def _oclgrind_log_size():
 def test_every_device_renders_the_cpu_image(scenes_dir, path):
     scene = tx.Scene.load(scenes_dir / path)
     cpu = next(d for d in PORTABILITY_DEVICES if d.type == "cpu")
-    ref = render(scene, 64, 48, 4, device=cpu.index, seed=1, aovs=("shading_normal", "uv"))
+    # 2 samples per pixel: the code paths of more (several pixels per work-item on PoCL's
+    # packets included) at half of Oclgrind's simulation time (trapezoid: 5.8 s, 10.9 at 4 spp).
+    ref = render(scene, 64, 48, 2, device=cpu.index, seed=1, aovs=("shading_normal", "uv"))
     for d in PORTABILITY_DEVICES:
         if d.index == cpu.index:
             continue
         logged = _oclgrind_log_size()
-        img = render(scene, 64, 48, 4, device=d.index, seed=1, aovs=("shading_normal", "uv"))
+        img = render(scene, 64, 48, 2, device=d.index, seed=1, aovs=("shading_normal", "uv"))
         if _oclgrind_log_size() != logged:
             with open(OCLGRIND_LOG) as f:
                 f.seek(logged)
@@ -64,8 +66,9 @@ def test_every_device_renders_the_cpu_image(scenes_dir, path):
 @pytest.mark.parametrize("name", ["textured_meshes", "brick_wall", "globe"])
 def test_ray_packets_on_every_device(scenes_dir, monkeypatch, name):
     """The packet traversals (kernels/accel/packet.h), which the rule compiles in on PoCL
-    only, forced on every device: the image equals the scalar traversals' on the same
-    device bit for bit, and agrees with the CPU's; Oclgrind checks their memory accesses.
+    only, forced on every device (on Intel's runtime the triangles only): the image equals
+    the scalar traversals' on the same device bit for bit, and agrees with the CPU's;
+    Oclgrind checks their memory accesses.
     Triangles (textured meshes), quads (brick wall: geometry/quad_packet.h) and a sphere
     (globe: geometry/sphere_packet.h)."""
     scene = tx.Scene.load(scenes_dir / f"bench/{name}.toml")
@@ -73,6 +76,13 @@ def test_ray_packets_on_every_device(scenes_dir, monkeypatch, name):
     monkeypatch.setenv("TEXRAY_PACKET", "0")
     ref = render(scene, 40, 30, 16, device=cpu.index, seed=1)
     for d in PORTABILITY_DEVICES:
+        if name != "textured_meshes" and "Intel(R) OpenCL" in d.platform:
+            # Quad and sphere packets on Intel's runtime: test_intel_runtime.py's forced packets
+            # (TEXRAY_PACKET=8, its users' setting) hold them to PoCL's image; their 16-lane
+            # programs here took 17-25 s of cold builds per scene in CI (2026-12-04), and Intel
+            # rounds the explicit-vector quad and sphere tests differently from its scalar ones
+            # in the last bits (brick wall max 6e-8, globe 8e-7), so bit-equality is not asked there.
+            continue
         monkeypatch.setenv("TEXRAY_PACKET", "0")
         scalar = render(scene, 40, 30, 16, device=d.index, seed=1)
         monkeypatch.setenv("TEXRAY_PACKET", "16")
@@ -87,13 +97,6 @@ def test_ray_packets_on_every_device(scenes_dir, monkeypatch, name):
             # `c ? (int16)(1) : (int16)(2)` gives 255 in the true lanes), which packet_setup's
             # lane masks compile to; its memory checker still runs the packet code above.
             continue
-        if name != "textured_meshes" and "Intel(R) OpenCL" in d.platform:
-            # Intel's runtime rounds the explicit-vector quad and sphere tests differently in the
-            # last bits (measured: brick wall max 6e-8 in 616 of 3600 values, globe 8e-7 in 536),
-            # though its quad packet hits equal its scalar ones ray for ray in Tracer; the rule
-            # compiles packets in on PoCL only (texray.device.features.packet_width).
-            assert np.abs(img.rgb - scalar.rgb).max() <= 1e-6, f"{d.name}: packets change the image"
-        else:
-            assert np.array_equal(img.rgb, scalar.rgb), f"{d.name}: packets change the image"
+        assert np.array_equal(img.rgb, scalar.rgb), f"{d.name}: packets change the image"
         diff = np.abs(img.rgb - ref.rgb).max(axis=2)
         assert np.mean(diff > 0.02) <= 1e-3, f"{d.name}: {np.mean(diff > 0.02):.4%} pixels differ by > 0.02"

@@ -220,15 +220,22 @@ SCENES = ["showcase.toml", "bench/globe.toml", "bench/displaced_wall.toml", "bum
 @needs_intel
 @pytest.mark.parametrize("path", SCENES)
 def test_vectorized_renders_match_pocl(scenes_dir, path):
+    """With the AOVs of test_devices_agree.py (the same programs: their builds, 5-18 s each on
+    Intel's compiler, are paid once per run), whose values are held to PoCL's as there."""
     scene = tx.Scene.load(scenes_dir / path)
+    aovs = ("shading_normal", "uv")
     for pipeline in ("fused", "stages"):
-        ref = render(scene, 64, 48, 1, device=POCL[0].index, seed=1, pipeline=pipeline).rgb
+        ref = render(scene, 64, 48, 1, device=POCL[0].index, seed=1, pipeline=pipeline, aovs=aovs)
         for local in (8, 16, 64):
-            img = render(scene, 64, 48, 1, device=INTEL[0].index, seed=1, pipeline=pipeline, local_size=local).rgb
-            diff = np.abs(img - ref).max(axis=2)
+            img = render(scene, 64, 48, 1, device=INTEL[0].index, seed=1, pipeline=pipeline, local_size=local,
+                         aovs=aovs)
+            diff = np.abs(img.rgb - ref.rgb).max(axis=2)
             where = f"{path}, {pipeline}, local size {local}"
             assert np.mean(diff > 0.02) <= 1e-3, f"{where}: {np.mean(diff > 0.02):.3%} of pixels differ by > 0.02"
             assert diff[diff <= 0.02].mean() < 1e-4, f"{where}: mean abs difference {diff[diff <= 0.02].mean():.2g}"
+            for a in aovs:
+                same = np.isfinite(ref.aov[a]) & np.isfinite(img.aov[a])
+                assert np.mean(np.abs(img.aov[a] - ref.aov[a])[same] > 1e-3) <= 2e-3, (where, a)
 
 
 @needs_intel
