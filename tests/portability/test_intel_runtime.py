@@ -18,8 +18,11 @@ both pipelines, and held to PoCL's image within the device-agreement tolerance
 (test_devices_agree.py: at most 0.1% of pixels differ by more than 0.02, the rest by
 less than 1e-4 on average).
 """
+import json
 import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -173,8 +176,6 @@ def test_a_driver_library_that_cannot_load_hides_no_device(tmp_path):
     """An NVIDIA library that is no driver (here an empty file: a machine without the GPU or
     its kernel module) is registered, and the loader skips it: every device seen before is
     still there."""
-    import subprocess
-    import sys
     lib = _nvidia(tmp_path, "driver")
     code = ("import json, texray.device.icd as i, texray.device as d; "
             "print(json.dumps([i.registered is not None, sorted(x.name for x in d.devices())]))")
@@ -184,7 +185,7 @@ def test_a_driver_library_that_cannot_load_hides_no_device(tmp_path):
         env.update(extra, XDG_CACHE_HOME=str(tmp_path / "cache"))
         out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
         assert out.returncode == 0, out.stderr[-2000:]
-        runs.append(__import__("json").loads(out.stdout.strip().splitlines()[-1]))
+        runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
     assert runs[1][0], "nothing registered"
     assert set(runs[0][1]) <= set(runs[1][1]) and runs[0][1]
     listed = [p.read_text().strip() for p in (tmp_path / "cache" / "texray" / "icd").rglob("*.icd")]

@@ -170,7 +170,7 @@ def register(environ=None, library=None, cache_dir=None, prefix_vendors=None, nv
     library = find_runtime() if library is None else Path(library)
     nvidia = find_nvidia(environ, nvidia_dirs)
     # (ICD file name, what an ICD's library name starts with when it is that driver, the library)
-    wanted = [w for w in (("intel-cpu.icd", LIBRARY, library), ("nvidia.icd", "libnvidia-opencl", nvidia))
+    wanted = [w for w in (("intel-cpu.icd", LIBRARY, library), ("nvidia.icd", NVIDIA_LIBRARY.split(".")[0], nvidia))
               if w[2] is not None]
     if not wanted:
         return None
