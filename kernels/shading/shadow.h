@@ -54,21 +54,22 @@ inline uchar light_visible(const Surface* s, float3 org, int lifted, float3 lpos
 
 #if TX_PACKET
 /* light_visible for the m <= TX_PACKET surface points s[0..m) with their shadow origins
- * org[j] and lifted[j] (shadow_origin) and the light at lpos, into vis[j]: the same answers,
- * from one packet traversal (accel/packet.h). Points that are not valid get 0, and so do
- * those whose pick[j] is not `light` where pick is given (one light per sample: each light's
- * packet holds the samples that picked it). */
-inline void light_visible_packet(const Surface* s, const float3* org, const int* lifted, uint m, float3 lpos,
-                                 const uint* pick, uint light, TX_GEOM_PARAMS, uchar* vis)
+ * org[j] and lifted[j] (shadow_origin), each toward its own light lpos[j], into vis[j]: the
+ * same answers, from one packet traversal (accel/packet.h). Points that are not valid get 0.
+ * Every sample's rays toward one light (lpos[j] all equal), or with TX_ONE_LIGHT each
+ * sample's ray toward the light it picked: one packet for the chunk, not one per light with
+ * the other lights' lanes idle. */
+inline void light_visible_packet(const Surface* s, const float3* org, const int* lifted, uint m, const float3* lpos,
+                                 TX_GEOM_PARAMS, uchar* vis)
 {
     PacketRay r;
     int act[TX_PACKET];
     for (uint j = 0; j < (uint)TX_PACKET; ++j) {
         float3 o = (float3)(0.0f), d = (float3)(0.0f, 0.0f, 1.0f);    /* lanes not traced: any valid ray */
         act[j] = 0;
-        if (j < m && s[j].valid && (!pick || pick[j] == light)) {
+        if (j < m && s[j].valid) {
             float3 dj;
-            if (shadow_ray(s + j, org[j], lifted[j], lpos, &dj)) { o = org[j]; d = dj; act[j] = -1; }
+            if (shadow_ray(s + j, org[j], lifted[j], lpos[j], &dj)) { o = org[j]; d = dj; act[j] = -1; }
         }
         packet_set_lane(&r, j, o, d, 0.0f, 1.0f);
     }

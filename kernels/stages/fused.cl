@@ -177,37 +177,45 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
                 sorg[j] = shadow_origin(s + j, lifted + j);
             }
         }
-        /* each light's shadow rays for the whole chunk; with TX_ONE_LIGHT only the samples that
-         * picked the light (core/sampler.h light_pick), a light no sample picked skipped */
+        /* the shadow rays: with TX_ONE_LIGHT each sample's toward the light it picked
+         * (core/sampler.h light_pick), as one packet for the chunk; otherwise each light's
+         * for the whole chunk */
 #if TX_ONE_LIGHT
-        uint pick[TX_CHUNK], block = light_block(spp, nlights);
-        for (uint j = 0; j < m; ++j)
-            pick[j] = light_pick(sample0 + k0 + j - lp[j] * nsamples, pattern[lp[j]], nlights, block);
-#define TX_PICKS pick
-#define TX_PICKED(j, i) (pick[j] == (i))
-#else
-#define TX_PICKS ((const uint*)0)
-#define TX_PICKED(j, i) 1
-#endif
-        FOR_EACH_LIGHT(i, nlights) {
-#if TX_ONE_LIGHT
-            uint picked = 0u;
-            for (uint j = 0; j < m; ++j) picked |= pick[j] == i;
-            if (!picked) continue;
-#endif
-            float3 lpos = vload3(0, lights[i].position);
+        uint block = light_block(spp, nlights);
+        float3 lposj[TX_CHUNK];
+        uint pick[TX_CHUNK];
+        if (nlights) {
+            for (uint j = 0; j < m; ++j) {
+                pick[j] = light_pick(sample0 + k0 + j - lp[j] * nsamples, pattern[lp[j]], nlights, block);
+                lposj[j] = vload3(0, lights[pick[j]].position);
+            }
 #if TX_PACKET
-            light_visible_packet(s, sorg, lifted, m, lpos, TX_PICKS, i, TX_GEOM_ARGS, vis);
+            light_visible_packet(s, sorg, lifted, m, lposj, TX_GEOM_ARGS, vis);
 #else
             for (uint j = 0; j < m; ++j)
-                vis[j] = s[j].valid && TX_PICKED(j, i) && light_visible(s + j, sorg[j], lifted[j], lpos, TX_GEOM_ARGS);
+                vis[j] = s[j].valid && light_visible(s + j, sorg[j], lifted[j], lposj[j], TX_GEOM_ARGS);
+#endif
+            for (uint j = 0; j < m; ++j)
+                if (vis[j])
+                    c[j] += light_term(s + j, v[j], lposj[j], light_intensity(vload3(0, lights[pick[j]].intensity),
+                                                                              nlights));
+        }
+#else
+        FOR_EACH_LIGHT(i, nlights) {
+            float3 lpos = vload3(0, lights[i].position);
+#if TX_PACKET
+            float3 lposj[TX_CHUNK];
+            for (uint j = 0; j < (uint)TX_CHUNK; ++j) lposj[j] = lpos;
+            light_visible_packet(s, sorg, lifted, m, lposj, TX_GEOM_ARGS, vis);
+#else
+            for (uint j = 0; j < m; ++j)
+                vis[j] = s[j].valid && light_visible(s + j, sorg[j], lifted[j], lpos, TX_GEOM_ARGS);
 #endif
             float3 li = light_intensity(vload3(0, lights[i].intensity), nlights);
             for (uint j = 0; j < m; ++j)
                 if (vis[j]) c[j] += light_term(s + j, v[j], lpos, li);
         }
-#undef TX_PICKS
-#undef TX_PICKED
+#endif
         for (uint j = 0; j < m; ++j) {
             float3 cj = clamp_radiance(c[j]);
             sum[lp[j]] += cj;

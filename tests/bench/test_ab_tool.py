@@ -30,3 +30,18 @@ def test_malformed_env_settings_are_named(capsys):
     with pytest.raises(SystemExit):
         _ab().main([str(ROOT), str(ROOT), "--base-env", "TEXRAY_PACKET"])
     assert "--base-env: expected K=V, got 'TEXRAY_PACKET'" in capsys.readouterr().err
+
+
+def test_light_sampling_reaches_the_render_calls(capsys):
+    """--light-sampling one renders both sides with render(light_sampling="one"); the value
+    is what render receives (a bad one fails with render's message)."""
+    ab = _ab()
+    scene = ROOT / "scenes" / "bench" / "textured_meshes.toml"
+    with pytest.raises(SystemExit, match="light_sampling: expected one of all, one, got 'bogus'"):
+        ab.frame_time(ROOT, scene, (8, 6), 1, 1, "Portable Computing Language", light_sampling="bogus")
+    args = [str(ROOT), str(ROOT), str(scene), "--size", "16x12", "--spp", "2", "--rounds", "1", "--frames", "1"]
+    assert ab.main(args + ["--light-sampling", "one"]) == 0
+    assert "median new/base" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        ab.main(args + ["--light-sampling", "some"])
+    assert "--light-sampling: invalid choice: 'some'" in capsys.readouterr().err
