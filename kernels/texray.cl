@@ -32,6 +32,9 @@
 #include "shading/surface.h"
 #include "shading/shadow.h"
 #include "shading/light.h"
+#if TX_PACKET
+#include "core/camera_packet.h"
+#endif
 #include "stages/raygen.cl"
 #include "stages/intersect.cl"
 #include "stages/surface.cl"

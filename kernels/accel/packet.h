@@ -41,6 +41,7 @@ typedef int16 pint;
 #define TX_LANES(p) (p)[0], (p)[1], (p)[2], (p)[3], (p)[4], (p)[5], (p)[6], (p)[7], \
                   (p)[8], (p)[9], (p)[10], (p)[11], (p)[12], (p)[13], (p)[14], (p)[15]
 #define PSTORE(v, p) vstore16(v, 0, p)
+#define PLOAD(p) vload16(0, p)
 #elif TX_PACKET == 8
 typedef float8 pfloat;
 typedef int8 pint;
@@ -50,6 +51,7 @@ typedef int8 pint;
 #define TX_PACKET_EXACT_EDGES(U, V, W, ax, ay, bx, by, cx, cy) TX_WOOP_EXACT_EDGES(8, U, V, W, ax, ay, bx, by, cx, cy)
 #define TX_LANES(p) (p)[0], (p)[1], (p)[2], (p)[3], (p)[4], (p)[5], (p)[6], (p)[7]
 #define PSTORE(v, p) vstore8(v, 0, p)
+#define PLOAD(p) vload8(0, p)
 #else
 #error "TX_PACKET must be 8 or 16"
 #endif

@@ -87,34 +87,43 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
         /* the chunk's camera rays, then their closest hits as one packet (accel/packet.h) */
         PacketRay pr;
         int act[TX_CHUNK];
-        float3 rorg[TX_CHUNK], rdir[TX_CHUNK];      /* the rays (an invalid one is traced as none) */
         float jx[TX_CHUNK], jy[TX_CHUNK];            /* the samples' positions in their pixels */
+        pfloat fpx, fpy;                             /* their pixels' coordinates */
 #if TX_PIX_MAX > 1
-        uint ls[TX_CHUNK], lpat[TX_CHUNK];
+        uint ls[TX_CHUNK], lpat[TX_CHUNK], lpx[TX_CHUNK], lpy[TX_CHUNK];
         for (uint j = 0; j < (uint)TX_CHUNK; ++j) {
             uint kk = TX_MIN(k0 + j, total - 1u);    /* lanes past the end: a repeat, never traced */
             lp[j] = npix == 1u ? 0u : kk / nsamples;
             ls[j] = sample0 + kk - lp[j] * nsamples;
             lpat[j] = pattern[lp[j]];
+            lpx[j] = ppx[lp[j]]; lpy[j] = ppy[lp[j]];
         }
+        fpx = TX_CMJ_TO_FLOAT(TX_CMJ_LOAD(lpx)); fpy = TX_CMJ_TO_FLOAT(TX_CMJ_LOAD(lpy));
         if (jitter) cmj_sample_packet(TX_CMJ_LOAD(ls), spp, grid_m, TX_CMJ_LOAD(lpat), jx, jy);
 #else
         for (uint j = 0; j < (uint)TX_CHUNK; ++j)
             lp[j] = 0u;
+        fpx = (pfloat)((float)ppx[0]); fpy = (pfloat)((float)ppy[0]);
         if (jitter)      /* one pixel: consecutive samples of one pattern (lanes past the end: never traced) */
             cmj_sample_packet((cmj_uint)(sample0 + k0) + TX_CMJ_LANE_IDS, spp, grid_m, (cmj_uint)(pattern[0]), jx, jy);
 #endif
-        for (uint j = 0; j < (uint)TX_CHUNK; ++j) {
-            float3 org = (float3)(0.0f), dir = (float3)(0.0f, 0.0f, 1.0f);   /* lanes not traced */
-            act[j] = 0;
-            if (j < m) {
-                float2 jit = jitter ? (float2)(jx[j], jy[j]) : (float2)(0.5f, 0.5f);
-                float3 o, d;
-                camera_ray(cam, image_w, image_h, ppx[lp[j]], ppy[lp[j]], jit, &o, &d);
-                rorg[j] = o; rdir[j] = d;
-                if (ray_valid(o, d, 0.0f, INFINITY)) { org = o; dir = d; act[j] = -1; }
-            }
-            packet_set_lane(&pr, j, org, dir, 0.0f, INFINITY);
+        /* the camera rays as one vector computation (core/camera_packet.h); lanes past the
+         * chunk's end or with an invalid ray are not traced (origin 0, direction +z) */
+        {
+            pfloat pjx = (pfloat)(0.5f), pjy = (pfloat)(0.5f);
+            if (jitter) { pjx = PLOAD(jx); pjy = PLOAD(jy); }
+            pfloat3 d = camera_dir_packet(cam, image_w, image_h, fpx, fpy, pjx, pjy);
+            float3 eye = vload3(0, cam->eye);
+            pint live = ray_valid_packet(eye, d) & (TX_CMJ_LANE_IDS < (cmj_uint)(m));
+            PSTORE(PSEL_F(live, (pfloat)(eye.x), (pfloat)(0.0f)), pr.org[0]);
+            PSTORE(PSEL_F(live, (pfloat)(eye.y), (pfloat)(0.0f)), pr.org[1]);
+            PSTORE(PSEL_F(live, (pfloat)(eye.z), (pfloat)(0.0f)), pr.org[2]);
+            PSTORE(PSEL_F(live, d.x, (pfloat)(0.0f)), pr.dir[0]);
+            PSTORE(PSEL_F(live, d.y, (pfloat)(0.0f)), pr.dir[1]);
+            PSTORE(PSEL_F(live, d.z, (pfloat)(1.0f)), pr.dir[2]);
+            PSTORE((pfloat)(0.0f), pr.range[0]);
+            PSTORE((pfloat)(INFINITY), pr.range[1]);
+            PSTORE(live, act);
         }
         packet_setup(&pr, (pint)(TX_LANES(act)));
         PacketHit ph = bvh_closest_packet(TX_GEOM_ARGS, &pr, (pint)(TX_LANES(act)));
@@ -147,7 +156,9 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
 #define TX_PRE_GEOM(j) ((const Geom*)0)
 #endif
         for (uint j = 0; j < m; ++j) {
-            float3 org = rorg[j], dir = rdir[j];
+            /* the traced ray; a lane not traced has none to shade (its hit: a miss) */
+            float3 org = (float3)(pr.org[0][j], pr.org[1][j], pr.org[2][j]);
+            float3 dir = (float3)(pr.dir[0][j], pr.dir[1][j], pr.dir[2][j]);
             HitRec h = { ht[j], hb1[j], hb2[j], (uint)hp[j] };
 #else
         for (uint j = 0; j < m; ++j) {
