@@ -217,8 +217,23 @@ inline float tx_exp2(float x)
 #undef exp2
 #define exp2 tx_exp2
 
-/* vload_half4 stays PoCL's call: an inline bitwise widening (exact on all 65536 halves)
- * measured slower than PoCL's code (tools/ab.py, textured scenes: 1.03-1.09x). */
+/* vload_half4 (every texel read: texture/texture.h) as the CPU's own half-to-float
+ * instruction where the target has F16C (vcvtph2ps: every x86 CPU PoCL's LLVM compiles
+ * for since 2012), through clang's builtin: exact, as every half is a float, so the same
+ * floats as PoCL's call (tests/kernels/test_builtins.py: all 65536 halves). PoCL's call
+ * was 8.8% of the grazing quad's frame (perf, 2026-12-05); an inline bitwise widening
+ * had measured slower than the call (tools/ab.py, textured scenes: 1.03-1.09x). The
+ * four halves are one 8-byte load (texel offsets are 4-half aligned: vload_half4's
+ * address is p + 4 o). Without F16C it stays PoCL's call. */
+#if defined(__F16C__)
+inline float4 tx_vload_half4(size_t o, const __global half* p)
+{
+    ushort4 u = *(const __global ushort4*)((const __global ushort*)p + 4 * o);
+    return __builtin_ia32_vcvtph2ps((short8)(as_short4(u), (short4)(0)));
+}
+#undef vload_half4
+#define vload_half4 tx_vload_half4
+#endif
 
 #endif
 #endif

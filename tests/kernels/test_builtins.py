@@ -3,7 +3,7 @@
 * core/builtins.h (PoCL only, TX_POCL): tx_fabs, tx_floor, tx_fma, tx_nextafter,
   tx_copysign, tx_sqrt, tx_rsqrt and vload3 return the very bits of PoCL's builtins, on
   every special value (zeros, denormals, the float range's ends, infinities, NaNs) and a
-  million random bit patterns: the images keep their bits;
+  million random bit patterns: the images keep their bits; vload_half4 on all 65536 halves;
 * core/builtins.h's exp2 and log2 (PoCL only): within 1.5 ulp of float64 (measured: exp2
   0.84, log2 1.17), every special value as C99 says, denormal results of exp2 within one denormal;
 * core/transcendental.h (every device): tx_atan2 within 4 ulp of float64 atan2 (measured
@@ -86,6 +86,15 @@ __kernel void vector(__global const float* x, __global const float* y, __global 
     }
 }
 
+/* vload_half4 (core/builtins.h's where the target has F16C) and PoCL's own, of the halves
+ * h[4i..4i+3]: out[8i..8i+3] and out[8i+4..8i+7]. */
+__kernel void halves(__global const half* h, __global float* out, uint n)
+{
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    vstore4(vload_half4(i, h), 0, out + 8 * i);
+    vstore4(_cl_vload_half4(i, h), 0, out + 8 * i + 4);
+}
 
 /* exp2 and log2 (core/builtins.h's, on PoCL) of x: out[2i], out[2i + 1]. */
 __kernel void explog(__global const float* x, __global const float* y, __global float* out, uint n)
@@ -135,6 +144,31 @@ def test_pocl_inline_builtins_keep_the_bits(rt, rng):
         bad = (mine != theirs) & ~both_nan
         assert not bad.any(), (f"{name}: {bad.sum()} inputs differ, e.g. x={x[bad][:3]} y={y[bad][:3]}: "
                                f"{out[bad, 2 * j][:3]} vs builtin {out[bad, 2 * j + 1][:3]}")
+
+
+def test_pocl_vload_half4_widens_every_half_exactly(rt):
+    """Every one of the 65536 halves (zeros, denormals, infinities, NaNs) through the kernels'
+    vload_half4, at every position of a four-half load: numpy's float16 -> float32 value (a
+    half is exactly a float) and PoCL's own builtin's bits; NaNs stay NaN."""
+    if "-DTX_POCL=1" not in rt.device_defines:
+        pytest.skip("core/builtins.h replaces builtins on PoCL only")
+    h = np.arange(65536, dtype=np.uint16)
+    h = np.concatenate([h, np.roll(h, 1), np.roll(h, 2), np.roll(h, 3)])   # each half in each lane
+    n = len(h) // 4
+    k = build_test_program(rt, (), _POCL_KERNELS)
+    mf = cl.mem_flags
+    bh = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=h)
+    out = np.zeros(8 * n, np.float32)
+    bo = cl.Buffer(rt.context, mf.WRITE_ONLY, out.nbytes)
+    k.halves(rt.queue, (n,), None, bh, bo, np.uint32(n))
+    cl.enqueue_copy(rt.queue, out, bo)
+    out = out.reshape(n, 2, 4)
+    want = h.view(np.float16).astype(np.float32).reshape(n, 4)
+    nan = np.isnan(want)
+    assert nan.sum() == 4 * 2 * 1023 and (want == 0).sum() == 8
+    for got in (out[:, 0], out[:, 1]):
+        assert np.isnan(got[nan]).all()
+        np.testing.assert_array_equal(got[~nan].view(np.uint32), want[~nan].view(np.uint32))
 
 
 def test_pocl_vstore3_stores_as_the_builtin(rt, rng):
