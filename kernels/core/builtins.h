@@ -134,14 +134,36 @@ __attribute__((overloadable)) inline int tx_all(int16 v) { return tx_all(v.lo & 
  * With these, and the inline versions above, no 16-lane value reaches the library
  * (tests/kernels/test_packet.py builds the 16-lane program twice, the second from the
  * cache; 2026-12-04, pocl-binary-distribution 3.0). */
+/* vload8 and vstore8 (the 8-lane packets' PLOAD and PSTORE: accel/packet.h) as one
+ * unaligned vector access through a type aligned like its element (vmovups), not PoCL's
+ * call (_cl_vstore8: 0.7% of the grazing quad's frame, 2026-12-05). The same bytes. */
+typedef float tx_float8u __attribute__((ext_vector_type(8), aligned(4)));
+typedef int tx_int8u __attribute__((ext_vector_type(8), aligned(4)));
+typedef uint tx_uint8u __attribute__((ext_vector_type(8), aligned(4)));
+#define TX_INLINE8(T, AS)                                                                         \
+    __attribute__((overloadable)) inline void tx_vstore8(T##8 v, size_t o, AS T* p)               \
+    {                                                                                             \
+        *(AS tx_##T##8u*)(p + 8 * o) = v;                                                         \
+    }                                                                                             \
+    __attribute__((overloadable)) inline T##8 tx_vload8(size_t o, const AS T* p)                  \
+    {                                                                                             \
+        return *(const AS tx_##T##8u*)(p + 8 * o);                                                \
+    }
+TX_INLINE8(float, __private)
+TX_INLINE8(int, __private)
+TX_INLINE8(uint, __private)
+TX_INLINE8(float, __global)
+TX_INLINE8(int, __global)
+TX_INLINE8(uint, __global)
+#undef TX_INLINE8
 #define TX_HALVES16(T, AS)                                                                        \
     __attribute__((overloadable)) inline void tx_vstore16(T##16 v, size_t o, AS T* p)             \
     {                                                                                             \
-        vstore8(v.lo, 2 * o, p); vstore8(v.hi, 2 * o + 1, p);                                     \
+        tx_vstore8(v.lo, 2 * o, p); tx_vstore8(v.hi, 2 * o + 1, p);                               \
     }                                                                                             \
     __attribute__((overloadable)) inline T##16 tx_vload16(size_t o, const AS T* p)                \
     {                                                                                             \
-        return (T##16)(vload8(2 * o, p), vload8(2 * o + 1, p));                                   \
+        return (T##16)(tx_vload8(2 * o, p), tx_vload8(2 * o + 1, p));                             \
     }
 TX_HALVES16(float, __private)
 TX_HALVES16(int, __private)
@@ -159,6 +181,10 @@ __attribute__((overloadable)) inline float16 tx_convert_float16(uint16 v)
 #define vstore16 tx_vstore16
 #undef vload16
 #define vload16 tx_vload16
+#undef vstore8
+#define vstore8 tx_vstore8
+#undef vload8
+#define vload8 tx_vload8
 /* isnan, isinf, isfinite of a float (1 or 0, as the scalar builtins): its exponent bits. */
 inline int tx_isnan(float x) { return (as_uint(x) & 0x7fffffffu) > 0x7f800000u; }
 inline int tx_isinf(float x) { return (as_uint(x) & 0x7fffffffu) == 0x7f800000u; }
