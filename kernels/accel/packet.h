@@ -167,6 +167,14 @@ inline void packet_setup(PacketRay* r, pint active)
 #if TX_SPHERES
 #include "geometry/sphere_packet.h"   /* sphere_intersect_packet */
 #endif
+/* A packet's triangle hits' geometry as one vector computation: on PoCL only
+ * (geometry/triangle_packet.h says why). */
+#if TX_TRIANGLES && defined(TX_POCL)
+#define TX_TRI_GEOM_PACKET 1
+#include "geometry/triangle_packet.h"
+#else
+#define TX_TRI_GEOM_PACKET 0
+#endif
 
 /* box4_entry (accel/bvh.h) for one box and every lane, each with its interval
  * (r->tmin, tmax): the entry distance, INFINITY for a miss; lanes in m that are parallel to

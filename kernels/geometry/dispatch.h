@@ -126,10 +126,10 @@ typedef struct { uint material, object, prim; } PrimIds;
 /* `static`: called once, so inlined into surface_eval (shading/surface.h explains).
  * Surface geometry of the hit h of the ray (org, dir) into *g, by kind (each kind's
  * *_geom: the point, its error bound, the geometric normal, uv and dP/du, dP/dv with
- * respect to uv); returns the hit's ids. h->prim must not be TX_MISS. pre: a sphere or quad
- * hit's Geom when the caller has it already (the fused kernel's packets: geometry/
- * sphere_packet.h sphere_geom_packet, quad_packet.h quad_geom_packet, the same bits), else
- * NULL. */
+ * respect to uv); returns the hit's ids. h->prim must not be TX_MISS. pre: a sphere, quad or
+ * triangle hit's Geom when the caller has it already (the fused kernel's packets: geometry/
+ * sphere_packet.h sphere_geom_packet, quad_packet.h quad_geom_packet, triangle_packet.h
+ * triangle_geom_packet, the same bits), else NULL. */
 static inline PrimIds hit_geom(TX_GEOM_PARAMS, __global const TriShade* tri_shade, __global const QuadShade* quad_shade,
                         __global const float* uvs, float3 org, float3 dir, const HitRec* h, const Geom* pre, Geom* g)
 {
@@ -137,7 +137,10 @@ static inline PrimIds hit_geom(TX_GEOM_PARAMS, __global const TriShade* tri_shad
     PrimIds ids = { 0u, 0u, 0u };
     if (kind == PRIM_TRIANGLE) {
         __global const TriShade* ts = tri_shade + idx;
-        triangle_geom(tris + idx, ts, h->b1, h->b2, uvs, g);
+        if (pre)
+            *g = *pre;
+        else
+            triangle_geom(tris + idx, ts, h->b1, h->b2, uvs, g);
         ids.material = ts->material; ids.object = ts->object; ids.prim = ts->prim;
     }
 #if TX_SPHERES

@@ -130,9 +130,10 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
         float ht[TX_CHUNK], hb1[TX_CHUNK], hb2[TX_CHUNK];
         int hp[TX_CHUNK];
         PSTORE(ph.t, ht); PSTORE(ph.b1, hb1); PSTORE(ph.b2, hb2); PSTORE(ph.prim, hp);
-#if TX_SPHERES || TX_QUADS
-        /* the sphere and quad hits' geometry as one vector computation per kind
-         * (geometry/sphere_packet.h, quad_packet.h: the scalar geometry's bits) */
+#if TX_SPHERES || TX_QUADS || TX_TRI_GEOM_PACKET
+        /* the sphere, quad and triangle hits' geometry as one vector computation per kind
+         * (geometry/sphere_packet.h, quad_packet.h, triangle_packet.h: the scalar geometry's
+         * bits) */
         Geom pre[TX_CHUNK];
         uint pidx[TX_CHUNK];
         int has_pre[TX_CHUNK];
@@ -149,6 +150,12 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
         if (any(on_quad))
             quad_geom_packet(quads, quad_shade, pidx, on_quad, ph.b1, ph.b2, pre);
         pre_lanes |= on_quad;
+#endif
+#if TX_TRI_GEOM_PACKET
+        pint on_tri = (pint)(TX_LANES(act)) & (hit_kind == (int)PRIM_TRIANGLE);
+        if (any(on_tri))
+            triangle_geom_packet(tris, tri_shade, uvs, pidx, on_tri, ph.b1, ph.b2, pre);
+        pre_lanes |= on_tri;
 #endif
         PSTORE(pre_lanes, has_pre);
 #define TX_PRE_GEOM(j) (has_pre[j] ? pre + (j) : (const Geom*)0)

@@ -616,3 +616,121 @@ def test_packet_quad_geometry_equals_quad_geom(rt, rng, width):
     assert (out_s[qid // k_uv == 5, 3:6] == (0, 0, 1)).all()
     z = (qid // k_uv == 8) & (params[:, 1] == 0.5)
     assert z.any() and (np.abs(out_s[z, 5]) == 1).all()          # the Z's fold: a diagonal or triangle normal
+
+
+_TRI_GEOM_KERNEL = r"""
+#include "core/common.h"
+#include "core/accurate.h"
+#include "geometry/triangle.h"
+#include "accel/packet.h"
+""" + _STORE_GEOM + r"""
+/* Work-item i: lanes k = TX_PACKET i .. with triangle tidx[k] at the barycentrics (b1, b2)[k]
+ * (lanes with lane[k] = 0 left out of the mask): triangle_geom lane by lane (out_s) and
+ * triangle_geom_packet (out_p), 17 floats each; on[0] = TX_TRI_GEOM_PACKET. */
+__kernel void tri_geoms(__global const TriVerts* tris, __global const TriShade* ts, __global const float* uvs,
+                        __global const uint* tidx, __global const float* bary, __global const int* lane,
+                        __global float* out_s, __global float* out_p, __global int* on, uint n)
+{
+    uint i = get_global_id(0);
+    if (i == 0) on[0] = TX_TRI_GEOM_PACKET;
+    if (i >= n) return;
+#if TX_TRI_GEOM_PACKET
+    uint idx[TX_PACKET];
+    float b1[TX_PACKET], b2[TX_PACKET];
+    int ml[TX_PACKET];
+    Geom gs[TX_PACKET], gp[TX_PACKET];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        uint k = TX_PACKET * i + j;
+        idx[j] = tidx[k];
+        b1[j] = bary[2 * k]; b2[j] = bary[2 * k + 1];
+        ml[j] = lane[k] ? -1 : 0;
+        triangle_geom(tris + idx[j], ts + idx[j], b1[j], b2[j], uvs, gs + j);
+        gp[j] = gs[j];
+        gp[j].p.x = -7.0f;                        /* a lane outside the mask must keep this */
+    }
+    triangle_geom_packet(tris, ts, uvs, idx, PLOAD(ml), PLOAD(b1), PLOAD(b2), gp);
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        uint k = TX_PACKET * i + j;
+        store_geom(gs + j, out_s + 17 * k);
+        store_geom(gp + j, out_p + 17 * k);
+    }
+#endif
+}
+"""
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_packet_triangle_geometry_equals_triangle_geom(rt, rng, width):
+    """triangle_geom_packet (geometry/triangle_packet.h: the fused kernel's triangle hits on
+    PoCL) gives triangle_geom's point, normal, tangents, uv and error bound bit for bit, each
+    lane on its own triangle: ordinary and sliver triangles, with and without uvs, a mirrored
+    and a rotated uv map, singular ones (zero area, below 2^-16: the tangents' fallback),
+    edges beyond 2^64 (the cross product overflows: scaled edges), a triangle 1e-20 across
+    (|n|^2 underflows: normalize3's scaled path), a degenerate one (zero normal), one 1e5
+    from the origin; at random barycentrics, the vertices and edges; lanes outside the mask
+    keep their Geom."""
+    import pyopencl as cl
+    from kernel_harness import build_test_program
+    from texray.device import layout
+    from texray.device.features import compile_options
+    corners = [
+        [(0, 0, 0), (1, 0, 0), (0, 1, 0)],
+        [(0.3, -1, 2), (2, 0.5, -1), (-1, 2, 0.7)],
+        [(0, 0, 0), (1, 0, 1e-4), (2, 1e-3, 0)],                                  # sliver
+        [(-3e19, 0, 0), (3e19, 1e19, 0), (0, 3e19, 2e19)],                         # edges beyond 2^64
+        [(1e-20, 0, 0), (2e-20, 1e-20, 0), (1e-20, 1e-20, 1e-20)],                 # |n|^2 underflows
+        [(0, 0, 0), (1, 1, 1), (2, 2, 2)],                                         # collinear: n = 0
+        [(1e5, 1e5, 1e5), (1e5 + 1, 1e5, 1e5 + 0.5), (1e5, 1e5 + 1, 1e5)],
+        [(0, 0, 0), (0, 0, 1), (0, 1, 0)],                                         # x largest, any_tangent's other side
+    ]
+    uv_sets = [None, [(0, 0), (1, 0), (0, 1)], [(1, 0), (0, 0), (1, 2)], [(0.2, 0.1), (0.9, 0.3), (0.4, 1.1)],
+               [(0, 0), (1, 1), (2, 2)],                                             # singular
+               [(0, 0), (1, 1), (2, 2.00001)]]                                        # |det| / size below 2^-16
+    ntri = len(corners) * len(uv_sets)
+    tris = np.zeros(ntri, layout.TRI_VERTS)
+    shade = np.zeros(ntri, layout.TRI_SHADE)
+    uvs = []
+    for i, (c, t) in enumerate((c, t) for c in corners for t in uv_sets):
+        tris[i]["p0"], tris[i]["p1"], tris[i]["p2"] = c
+        if t is not None:
+            shade[i]["v"] = [len(uvs), len(uvs) + 1, len(uvs) + 2]
+            shade[i]["flags"] = layout.TRI_HAS_UVS
+            uvs.extend(t)
+    uvs = np.asarray(uvs, np.float32).ravel()
+    n = 4096
+    tid = rng.integers(0, ntri, n).astype(np.uint32)
+    b = rng.random((n, 2))
+    b = np.where(b.sum(1, keepdims=True) > 1, 1 - b, b).astype(np.float32)
+    b[::7] = np.array([(0, 0), (1, 0), (0, 1)], np.float32)[rng.integers(0, 3, len(b[::7]))]   # vertices
+    b[1::7, 1] = 1 - b[1::7, 0]                                                              # the far edge
+    b[2::7, 0] = 0                                                                           # an edge
+    lane = (rng.random(n) < 0.85).astype(np.int32)
+    opts = {**compile_options(Features(triangles=True)), "TX_PACKET": width}
+    k = build_test_program(rt, (), _TRI_GEOM_KERNEL, [f"-D{a}={b_}" for a, b_ in opts.items()])
+    mf = cl.mem_flags
+    ins = [cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a))
+           for a in (tris, shade, uvs, tid, b, lane)]
+    out_s, out_p = np.zeros((n, 17), np.float32), np.zeros((n, 17), np.float32)
+    on = np.zeros(1, np.int32)
+    bufs = [cl.Buffer(rt.context, mf.WRITE_ONLY, a.nbytes) for a in (out_s, out_p, on)]
+    k.tri_geoms(rt.queue, (n // width,), None, *ins, *bufs, np.uint32(n // width))
+    for a, buf in zip((out_s, out_p, on), bufs):
+        cl.enqueue_copy(rt.queue, a, buf)
+    if not on[0]:
+        assert "-DTX_POCL=1" not in rt.device_defines
+        pytest.skip("triangle_geom_packet is compiled on PoCL only")
+    assert np.isfinite(out_s).all()
+    masked = lane == 1
+    assert (out_p[~masked, 0] == -7.0).all()
+    same = out_s.view(np.uint32) == out_p.view(np.uint32)
+    bad = np.flatnonzero(~same.all(axis=1) & masked)
+    assert bad.size == 0, f"{bad.size} lanes differ, e.g. triangle {tid[bad[0]]} at {b[bad[0]]}, fields " \
+                          f"{np.flatnonzero(~same[bad[0]])}: {out_s[bad[0]]} against {out_p[bad[0]]}"
+    # the fallbacks were taken: unit normals from the overflowing and the tiny triangles,
+    # a zero normal for the collinear one, unit tangents where the uv map is singular
+    k_uv = len(uv_sets)
+    for c in (3, 4):
+        assert np.allclose(np.linalg.norm(out_s[tid // k_uv == c, 3:6], axis=1), 1, atol=1e-6)
+    assert (out_s[tid // k_uv == 5, 3:6] == 0).all()
+    sing = (tid % k_uv >= 4) & (tid // k_uv != 5) & masked
+    assert sing.any() and np.allclose(np.linalg.norm(out_p[sing, 6:9], axis=1), 1, atol=1e-6)
