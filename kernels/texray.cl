@@ -34,6 +34,7 @@
 #include "shading/light.h"
 #if TX_PACKET
 #include "core/camera_packet.h"
+#include "shading/light_packet.h"
 #endif
 #include "stages/raygen.cl"
 #include "stages/intersect.cl"

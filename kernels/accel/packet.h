@@ -34,6 +34,7 @@
 #if TX_PACKET == 16
 typedef float16 pfloat;
 typedef int16 pint;
+typedef uint16 puint;
 #define as_pint as_int16
 #define as_puint as_uint16
 #define as_pfloat as_float16
@@ -45,6 +46,7 @@ typedef int16 pint;
 #elif TX_PACKET == 8
 typedef float8 pfloat;
 typedef int8 pint;
+typedef uint8 puint;
 #define as_pint as_int8
 #define as_puint as_uint8
 #define as_pfloat as_float8

@@ -11,6 +11,22 @@
 #ifndef TEXRAY_PACKET_VEC_H
 #define TEXRAY_PACKET_VEC_H
 
+/* (E(0), E(1), .., E(TX_PACKET - 1)): one expression per lane as a vector literal, a gather
+ * straight into a vector (shading/shadow.h, shading/light_packet.h). */
+#define PGATHER(E) PGATHER_(E, TX_PACKET)
+#define PGATHER_(E, n) PGATHER__(E, n)
+#define PGATHER__(E, n) PGATHER_##n(E)
+#define PGATHER_8(E) (E(0), E(1), E(2), E(3), E(4), E(5), E(6), E(7))
+#define PGATHER_16(E) (E(0), E(1), E(2), E(3), E(4), E(5), E(6), E(7), E(8), E(9), E(10), E(11), E(12), E(13), \
+                       E(14), E(15))
+/* The same with an argument passed on: (E(0, a), E(1, a), ..). */
+#define PGATHER_A(E, a) PGATHER_A_(E, a, TX_PACKET)
+#define PGATHER_A_(E, a, n) PGATHER_A__(E, a, n)
+#define PGATHER_A__(E, a, n) PGATHER_A_##n(E, a)
+#define PGATHER_A_8(E, a) (E(0, a), E(1, a), E(2, a), E(3, a), E(4, a), E(5, a), E(6, a), E(7, a))
+#define PGATHER_A_16(E, a) (E(0, a), E(1, a), E(2, a), E(3, a), E(4, a), E(5, a), E(6, a), E(7, a), E(8, a), \
+                            E(9, a), E(10, a), E(11, a), E(12, a), E(13, a), E(14, a), E(15, a))
+
 /* A 3-vector per lane. */
 typedef struct {
     pfloat x, y, z;
@@ -35,6 +51,45 @@ static inline __attribute__((always_inline)) pfloat3 pf3_cross(pfloat3 a, pfloat
 {
     return pf3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
+
+#if TX_POCL
+/* core/builtins.h's tx_log2 and tx_exp2 (PoCL's exp2 and log2) lane by lane, bit for bit:
+ * the same statements, compiled as there (contraction on), the special values' branches as
+ * lane selects (tests/kernels/test_builtins.py compares every lane with the scalar ones). */
+static inline __attribute__((always_inline)) pfloat pf_log2(pfloat x)
+{
+    pint special = as_pint(as_puint(x) - 0x00800000u >= (puint)(0x7f000000u));   /* not a positive normal */
+    pint den = special & (x > 0.0f) & (x < INFINITY);        /* a denormal: normalized exactly */
+    x = PSEL_F(den, x * 0x1p23f, x);
+    puint u = as_puint(x);
+    pint e = (pint)(-127) + PSEL_I(den, (pint)(-23), (pint)(0)) + as_pint(u >> 23);
+    pfloat m = as_pfloat((u & 0x007fffffu) | 0x3f800000u);   /* [1, 2) */
+    pint big = m > 1.41421356f;                              /* to [sqrt 1/2, sqrt 2] */
+    m = PSEL_F(big, m * 0.5f, m);
+    e -= big;
+    pfloat f = m - 1.0f, s = f / (2.0f + f), z = s * s;
+    pfloat r = z * (0.666666667f + z * (0.4f + z * (0.285714286f + z * (0.222222222f + z * 0.181818182f))));
+    pfloat y = __builtin_convertvector(e, pfloat) + (f * 1.44269504f - s * (f - r) * 1.44269504f);
+    y = PSEL_F(special & (x == INFINITY), x, y);
+    y = PSEL_F(special & (x < 0.0f), (pfloat)(NAN), y);
+    y = PSEL_F(special & (x == 0.0f), (pfloat)(-INFINITY), y);
+    return PSEL_F(x != x, x, y);
+}
+static inline __attribute__((always_inline)) pfloat pf_exp2(pfloat x)
+{
+    pint low = ~(x > -150.0f), high = x >= 128.0f;          /* NaN or below half the least denormal; overflow */
+    pfloat xr = PSEL_F(low | high, (pfloat)(0.0f), x);
+    /* rint(xr): |xr| < 128, so adding and subtracting 1.5 2^23 rounds it to an integer, to
+     * nearest even, as rint does (a zero's sign aside, which neither f nor k below tells) */
+    pfloat n = (xr + 12582912.0f) - 12582912.0f, f = xr - n;
+    pfloat p = 1.0f + f * (0.693147181f + f * (0.240226507f + f * (0.0555041087f + f * (0.00961812911f
+              + f * (0.00133335581f + f * (0.000154035304f + f * 1.52527338e-5f))))));
+    pint k = __builtin_convertvector(n, pint), k1 = k / 2;
+    pfloat y = p * as_pfloat(as_pint(as_puint(k1 + 127) << 23)) * as_pfloat(as_pint(as_puint(k - k1 + 127) << 23));
+    y = PSEL_F(high, (pfloat)(INFINITY), y);
+    return PSEL_F(low, PSEL_F(x != x, x, (pfloat)(0.0f)), y);
+}
+#endif
 #pragma OPENCL FP_CONTRACT OFF
 
 /* core/accurate.h's tx_diff_prod, tx_cross_accurate and tx_two_diff3, lane by lane. */

@@ -152,100 +152,37 @@ inline float2 cmj_sample(uint s, uint N, uint p)
 }
 
 #if TX_PACKET
-/* cmj_sample_m for TX_PACKET samples, one per lane (stages/fused.cl's chunk of camera
- * rays): the same integer hashes and the same
- * float operations, one statement each as in the scalar code (FP contraction, which this
- * file allows, fuses only within a statement), so every lane's position is cmj_sample_m's
- * bit for bit (tests/kernels/test_sampler.py). In the scalar code the three permutations
- * and the divisions by m took 8-16% of a frame (perf, globe and quads at 4-16 spp). */
-#define TX_CMJ_VT(t) TX_CMJ_VT_(t, TX_PACKET)
-#define TX_CMJ_VT_(t, n) TX_CMJ_VT__(t, n)
-#define TX_CMJ_VT__(t, n) t##n
-typedef TX_CMJ_VT(uint) cmj_uint;
-typedef TX_CMJ_VT(int) cmj_int;
-typedef TX_CMJ_VT(float) cmj_float;
-/* The conversion, load and store spelled out per width, not pasted by TX_CMJ_VT: PoCL's headers
- * make `convert_float`, `vload` and `vstore` macros of their own (_cl_convert_float, ...), which
- * TX_CMJ_VT's argument would expand to before the paste, past core/builtins.h's 16-lane
- * versions into a library call that breaks the program on AVX2 targets (builtins.h). */
+/* cmj_sample_m for 8 or 16 samples, one per lane (stages/fused.cl's chunks of camera rays):
+ * cmj_sample_packet8 and cmj_sample_packet16, core/sampler_packet.h at each width. The
+ * fused kernel takes the positions of two chunks of 8 in one call of the 16-lane version
+ * where two are left: the hashes are a chain of dependent multiplies (latency bound: 9% of
+ * the globe's frame at 8 lanes), so that 16 lanes take little more time than 8. Where one
+ * chunk is left (4 spp: two pixels of 4 samples per work-item) the 8-lane version: 16 lanes
+ * there measured 1.05-1.1 of the frame time. */
+#define TX_CMJ_T(t) TX_CMJ_T_(t, TX_CMJ_N)
+#define TX_CMJ_T_(t, n) TX_CMJ_T__(t, n)
+#define TX_CMJ_T__(t, n) t##n
+#define TX_LANE_IDS_8 (0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u)
+#define TX_LANE_IDS_16 (0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u, 8u, 9u, 10u, 11u, 12u, 13u, 14u, 15u)
+#define TX_CMJ_N 8
+#include "core/sampler_packet.h"
+#undef TX_CMJ_N
+#define TX_CMJ_N 16
+#include "core/sampler_packet.h"
+#undef TX_CMJ_N
+#define TX_CMJ_W 16                             /* the widest: stages/fused.cl's positions */
+/* Lane ids, a uint load and its conversion to float at the packet's width (accel/packet.h's
+ * TX_PACKET lanes: stages/fused.cl's camera rays, shading/shadow.h), spelled out per width:
+ * see core/sampler_packet.h. */
 #if TX_PACKET == 16
-#define TX_CMJ_LANE_IDS (cmj_uint)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u, 8u, 9u, 10u, 11u, 12u, 13u, 14u, 15u)
-#define TX_CMJ_TO_FLOAT(v) convert_float16(v)
-#define TX_CMJ_LOAD(p) vload16(0, p)
-#define TX_CMJ_STORE(v, p) vstore16(v, 0, p)
+#define TX_PKT_LANE_IDS (uint16)TX_LANE_IDS_16
+#define TX_PKT_TO_FLOAT(v) convert_float16(v)
+#define TX_PKT_ULOAD(p) vload16(0, p)
 #else
-#define TX_CMJ_LANE_IDS (cmj_uint)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u)
-#define TX_CMJ_TO_FLOAT(v) convert_float8(v)
-#define TX_CMJ_LOAD(p) vload8(0, p)
-#define TX_CMJ_STORE(v, p) vstore8(v, 0, p)
+#define TX_PKT_LANE_IDS (uint8)TX_LANE_IDS_8
+#define TX_PKT_TO_FLOAT(v) convert_float8(v)
+#define TX_PKT_ULOAD(p) vload8(0, p)
 #endif
-
-/* cmj_permute lane by lane (each lane its own pattern p): a lane's walk stops where the
- * scalar one breaks (its value kept, selected by bit operations: see accel/packet.h
- * PSEL_I), the loop when every lane has stopped or after the same w + 1 steps. */
-inline cmj_uint cmj_permute_packet(cmj_uint i, uint l, cmj_uint p)
-{
-    if (l <= 1u) return (cmj_uint)(0u);
-    uint w = cmj_mask(l);
-    cmj_uint done = (cmj_uint)(0u);
-    for (uint walk = 0u; walk <= w; ++walk) {
-        cmj_uint j = i;
-        TX_CMJ_ROUND(j, p, w);
-        i = (i & done) | (j & ~done);
-        done |= TX_CMJ_VT(as_uint)(i < (cmj_uint)(l));
-        if (all(TX_CMJ_VT(as_int)(done))) break;
-    }
-    return w + 1u == l ? (i + p) & w : (i + p) % l;
-}
-
-/* s / m and s % m lane by lane; a power of two m (every power-of-two N) as a shift and a
- * mask, the same values without a division per lane. (log2 m from the float's exponent, and
- * no (m & (m - 1)) == 0, which LLVM turns into llvm.ctpop: Oclgrind 21.10 cannot run it.) */
-inline void cmj_divmod_packet(cmj_uint s, uint m, cmj_uint* q, cmj_uint* r)
-{
-    uint k = (as_uint((float)m) >> 23) - 127u;         /* floor(log2 m): m <= 65535 is exact in float */
-    if (m == 1u << k) {
-        *q = s >> k;
-        *r = s & (m - 1u);
-    } else {
-        *q = s / m;
-        *r = s % m;
-    }
-}
-
-/* Sample s[lane] of pattern p[lane] (cmj_sample_m's N, m, one per lane: stages/fused.cl's
- * chunk, a pixel's consecutive samples or several pixels') into x[lane], y[lane]. */
-inline void cmj_sample_packet(cmj_uint s, uint N, uint m, cmj_uint p, float* x, float* y)
-{
-    uint n = N / m;
-    cmj_uint px = p * TX_CMJ_SALT_X, py = p * TX_CMJ_SALT_Y;
-    cmj_uint pjx = p * TX_CMJ_SALT_JX, pjy = p * TX_CMJ_SALT_JY;
-#if TX_ADAPTIVE
-    {                                                    /* cmj_cell's order, lane by lane */
-        uint n1 = TX_MAX(n, 1u);
-        cmj_uint run, col, row, unused;
-        cmj_divmod_packet(s, cmj_lcm(m, n1), &run, &unused);
-        cmj_divmod_packet(s + run, m, &unused, &col);
-        cmj_divmod_packet(s, n1, &unused, &row);
-        s = cmj_permute_packet(col, m, p * TX_CMJ_SALT_C) + m * cmj_permute_packet(row, n, p * TX_CMJ_SALT_R);
-    }
-#else
-    s = cmj_permute_packet(s, N, p * TX_CMJ_SALT_S);
-#endif
-    cmj_uint sd, sm;
-    cmj_divmod_packet(s, m, &sd, &sm);
-    cmj_uint sx = cmj_permute_packet(sm, m, px);
-    cmj_uint sy = cmj_permute_packet(sd, n, py);
-    cmj_uint bx = s, by = s;
-    TX_CMJ_RANDBITS(bx, pjx);
-    TX_CMJ_RANDBITS(by, pjy);
-    cmj_float jx = TX_CMJ_TO_FLOAT(bx) * TX_CMJ_RANDSCALE;
-    cmj_float jy = TX_CMJ_TO_FLOAT(by) * TX_CMJ_RANDSCALE;
-    cmj_float fx = (TX_CMJ_TO_FLOAT(sm) + (TX_CMJ_TO_FLOAT(sy) + jx) / (float)n) / (float)m;
-    cmj_float fy = (TX_CMJ_TO_FLOAT(sd) + (TX_CMJ_TO_FLOAT(sx) + jy) / (float)m) / (float)n;
-    TX_CMJ_STORE(fx, x);
-    TX_CMJ_STORE(fy, y);
-}
 #endif
 
 inline uint hash_u32(uint x)

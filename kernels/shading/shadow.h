@@ -70,12 +70,6 @@ inline void light_visible_packet(const Surface* s, const float3* org, const int*
      * store-to-load forwarding (a fifth of this function's time, perf on the globe) */
     if (m == 0u) return;
 #define TX_SH_J(j) TX_MIN((uint)(j), m - 1u)
-#define TX_SH_GATHER(E) TX_SH_GATHER_(E, TX_PACKET)
-#define TX_SH_GATHER_(E, n) TX_SH_GATHER__(E, n)
-#define TX_SH_GATHER__(E, n) TX_SH_GATHER_##n(E)
-#define TX_SH_GATHER_8(E) (E(0), E(1), E(2), E(3), E(4), E(5), E(6), E(7))
-#define TX_SH_GATHER_16(E) (E(0), E(1), E(2), E(3), E(4), E(5), E(6), E(7), E(8), E(9), E(10), E(11), E(12), \
-                            E(13), E(14), E(15))
 #define TX_SH_OX(j) org[TX_SH_J(j)].x
 #define TX_SH_OY(j) org[TX_SH_J(j)].y
 #define TX_SH_OZ(j) org[TX_SH_J(j)].z
@@ -86,10 +80,10 @@ inline void light_visible_packet(const Surface* s, const float3* org, const int*
 #define TX_SH_NY(j) (lifted[TX_SH_J(j)] ? s[TX_SH_J(j)].ns[1] : s[TX_SH_J(j)].ng[1])
 #define TX_SH_NZ(j) (lifted[TX_SH_J(j)] ? s[TX_SH_J(j)].ns[2] : s[TX_SH_J(j)].ng[2])
 #define TX_SH_VALID(j) (s[TX_SH_J(j)].valid ? -1 : 0)
-    pfloat3 o = pf3((pfloat)TX_SH_GATHER(TX_SH_OX), (pfloat)TX_SH_GATHER(TX_SH_OY), (pfloat)TX_SH_GATHER(TX_SH_OZ));
-    pfloat3 l = pf3((pfloat)TX_SH_GATHER(TX_SH_LX), (pfloat)TX_SH_GATHER(TX_SH_LY), (pfloat)TX_SH_GATHER(TX_SH_LZ));
-    pfloat3 n = pf3((pfloat)TX_SH_GATHER(TX_SH_NX), (pfloat)TX_SH_GATHER(TX_SH_NY), (pfloat)TX_SH_GATHER(TX_SH_NZ));
-    pint live = (pint)TX_SH_GATHER(TX_SH_VALID) & (TX_CMJ_VT(as_int)(TX_CMJ_LANE_IDS) < (pint)((int)m));
+    pfloat3 o = pf3((pfloat)PGATHER(TX_SH_OX), (pfloat)PGATHER(TX_SH_OY), (pfloat)PGATHER(TX_SH_OZ));
+    pfloat3 l = pf3((pfloat)PGATHER(TX_SH_LX), (pfloat)PGATHER(TX_SH_LY), (pfloat)PGATHER(TX_SH_LZ));
+    pfloat3 n = pf3((pfloat)PGATHER(TX_SH_NX), (pfloat)PGATHER(TX_SH_NY), (pfloat)PGATHER(TX_SH_NZ));
+    pint live = (pint)PGATHER(TX_SH_VALID) & (as_pint(TX_PKT_LANE_IDS) < (pint)((int)m));
     pfloat3 d = pf3_sub(l, o);
     /* ray_valid(o, d, 0, 1) (core/common.h), then the side test: the dot product as
      * shadow_ray's dot3 rounds it (accel/packet_vec.h pf3_dot) */
@@ -113,11 +107,6 @@ inline void light_visible_packet(const Surface* s, const float3* org, const int*
     PSTORE(live & ~bvh_any_packet(TX_GEOM_ARGS, &r, live), occ);   /* visible: traced and not occluded */
     for (uint j = 0; j < m; ++j) vis[j] = occ[j] != 0;
 #undef TX_SH_J
-#undef TX_SH_GATHER
-#undef TX_SH_GATHER_
-#undef TX_SH_GATHER__
-#undef TX_SH_GATHER_8
-#undef TX_SH_GATHER_16
 #undef TX_SH_OX
 #undef TX_SH_OY
 #undef TX_SH_OZ

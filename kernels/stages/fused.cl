@@ -76,6 +76,11 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
      * packet traversal each (accel/packet.h); else TX_CHUNK is 1 and this is the plain
      * per-sample loop. Every pixel adds the same terms in the same order either way. */
     uint total = npix * nsamples;
+#if TX_PACKET && !TX_INSTANCES
+    /* the samples' positions in their pixels, computed for two chunks of 8 at a time (core/sampler.h
+     * TX_CMJ_W) */
+    float jxw[TX_CMJ_W], jyw[TX_CMJ_W];
+#endif
     for (uint k0 = 0; k0 < total; k0 += TX_CHUNK) {
         uint m = TX_MIN(total - k0, (uint)TX_CHUNK);
         Surface s[TX_CHUNK];
@@ -87,34 +92,61 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
         /* the chunk's camera rays, then their closest hits as one packet (accel/packet.h) */
         PacketRay pr;
         int act[TX_CHUNK];
-        float jx[TX_CHUNK], jy[TX_CHUNK];            /* the samples' positions in their pixels */
+        uint jo = k0 % (uint)TX_CMJ_W;               /* the chunk's lanes in jxw, jyw */
         pfloat fpx, fpy;                             /* their pixels' coordinates */
 #if TX_PIX_MAX > 1
-        uint ls[TX_CHUNK], lpat[TX_CHUNK], lpx[TX_CHUNK], lpy[TX_CHUNK];
-        for (uint j = 0; j < (uint)TX_CHUNK; ++j) {
-            uint kk = TX_MIN(k0 + j, total - 1u);    /* lanes past the end: a repeat, never traced */
-            lp[j] = npix == 1u ? 0u : kk / nsamples;
-            ls[j] = sample0 + kk - lp[j] * nsamples;
-            lpat[j] = pattern[lp[j]];
-            lpx[j] = ppx[lp[j]]; lpy[j] = ppy[lp[j]];
+        /* each lane's pixel q and sample r in it, stepped lane by lane (no division per lane);
+         * lanes past the end repeat the last sample, never traced */
+        uint lpx[TX_CHUNK], lpy[TX_CHUNK];
+        uint q0 = npix == 1u ? 0u : k0 / nsamples, r0 = k0 - q0 * nsamples;
+        for (uint j = 0, q = q0, r = r0; j < (uint)TX_CHUNK; ++j) {
+            lp[j] = q;
+            lpx[j] = ppx[q]; lpy[j] = ppy[q];
+            if (k0 + j + 1u < total && ++r == nsamples) { r = 0u; ++q; }
         }
-        fpx = TX_CMJ_TO_FLOAT(TX_CMJ_LOAD(lpx)); fpy = TX_CMJ_TO_FLOAT(TX_CMJ_LOAD(lpy));
-        if (jitter) cmj_sample_packet(TX_CMJ_LOAD(ls), spp, grid_m, TX_CMJ_LOAD(lpat), jx, jy);
+        fpx = TX_PKT_TO_FLOAT(TX_PKT_ULOAD(lpx)); fpy = TX_PKT_TO_FLOAT(TX_PKT_ULOAD(lpy));
+        if (jitter && jo == 0u) {                    /* the positions of samples k0 .. k0 + TX_CMJ_W - 1 */
+            uint ls[TX_CMJ_W], lpat[TX_CMJ_W];
+            for (uint j = 0, q = q0, r = r0; j < (uint)TX_CMJ_W; ++j) {
+                ls[j] = sample0 + r;
+                lpat[j] = pattern[q];
+                if (k0 + j + 1u < total && ++r == nsamples) { r = 0u; ++q; }
+            }
+#if TX_PACKET == 8
+            if (total - k0 <= 8u)                    /* one chunk left: 8 lanes (core/sampler.h) */
+                cmj_sample_packet8(vload8(0, ls), spp, grid_m, vload8(0, lpat), jxw, jyw);
+            else
+#endif
+                cmj_sample_packet16(vload16(0, ls), spp, grid_m, vload16(0, lpat), jxw, jyw);
+        }
 #else
         for (uint j = 0; j < (uint)TX_CHUNK; ++j)
             lp[j] = 0u;
         fpx = (pfloat)((float)ppx[0]); fpy = (pfloat)((float)ppy[0]);
-        if (jitter)      /* one pixel: consecutive samples of one pattern (lanes past the end: never traced) */
-            cmj_sample_packet((cmj_uint)(sample0 + k0) + TX_CMJ_LANE_IDS, spp, grid_m, (cmj_uint)(pattern[0]), jx, jy);
+        if (jitter && jo == 0u) {   /* one pixel: its samples k0 .. k0 + TX_CMJ_W - 1 of one pattern (lanes past
+                                     * the end repeat the last, never traced; 8 lanes where one chunk is left) */
+            uint first_s = sample0 + k0, last = sample0 + total - 1u;
+#if TX_PACKET == 8
+            if (total - k0 <= 8u) {
+                uint8 sv = (uint8)(first_s) + (uint8)TX_LANE_IDS_8, past = as_uint8(sv > (uint8)(last));
+                cmj_sample_packet8((sv & ~past) | ((uint8)(last) & past), spp, grid_m, (uint8)(pattern[0]), jxw, jyw);
+            } else
+#endif
+            {
+                uint16 sv = (uint16)(first_s) + (uint16)TX_LANE_IDS_16, past = as_uint16(sv > (uint16)(last));
+                cmj_sample_packet16((sv & ~past) | ((uint16)(last) & past), spp, grid_m, (uint16)(pattern[0]),
+                                    jxw, jyw);
+            }
+        }
 #endif
         /* the camera rays as one vector computation (core/camera_packet.h); lanes past the
          * chunk's end or with an invalid ray are not traced (origin 0, direction +z) */
         {
             pfloat pjx = (pfloat)(0.5f), pjy = (pfloat)(0.5f);
-            if (jitter) { pjx = PLOAD(jx); pjy = PLOAD(jy); }
+            if (jitter) { pjx = PLOAD(jxw + jo); pjy = PLOAD(jyw + jo); }
             pfloat3 d = camera_dir_packet(cam, image_w, image_h, fpx, fpy, pjx, pjy);
             float3 eye = vload3(0, cam->eye);
-            pint live = ray_valid_packet(eye, d) & (TX_CMJ_LANE_IDS < (cmj_uint)(m));
+            pint live = ray_valid_packet(eye, d) & (as_pint(TX_PKT_LANE_IDS) < (pint)((int)m));
             PSTORE(PSEL_F(live, (pfloat)(eye.x), (pfloat)(0.0f)), pr.org[0]);
             PSTORE(PSEL_F(live, (pfloat)(eye.y), (pfloat)(0.0f)), pr.org[1]);
             PSTORE(PSEL_F(live, (pfloat)(eye.z), (pfloat)(0.0f)), pr.org[2]);
@@ -213,10 +245,17 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
             for (uint j = 0; j < m; ++j)
                 vis[j] = s[j].valid && light_visible(s + j, sorg[j], lifted[j], lposj[j], TX_GEOM_ARGS);
 #endif
+#if TX_LIGHT_PACKET
+            float3 lij[TX_CHUNK];
+            for (uint j = 0; j < m; ++j)
+                lij[j] = light_intensity(vload3(0, lights[pick[j]].intensity), nlights);
+            light_term_packet(s, v, lposj, lij, 1u, vis, m, c);
+#else
             for (uint j = 0; j < m; ++j)
                 if (vis[j])
                     c[j] += light_term(s + j, v[j], lposj[j], light_intensity(vload3(0, lights[pick[j]].intensity),
                                                                               nlights));
+#endif
         }
 #else
         FOR_EACH_LIGHT(i, nlights) {
@@ -230,8 +269,12 @@ __kernel void render_fused(__global float4* accum, __global const uint* active, 
                 vis[j] = s[j].valid && light_visible(s + j, sorg[j], lifted[j], lpos, TX_GEOM_ARGS);
 #endif
             float3 li = light_intensity(vload3(0, lights[i].intensity), nlights);
+#if TX_LIGHT_PACKET
+            light_term_packet(s, v, lposj, &li, 0u, vis, m, c);
+#else
             for (uint j = 0; j < m; ++j)
                 if (vis[j]) c[j] += light_term(s + j, v[j], lpos, li);
+#endif
         }
 #endif
         /* the samples' sums, in sample order; with one pixel per work-item its index as the

@@ -294,3 +294,61 @@ def test_pocl_exp2_and_log2_against_float64(rt, rng):
         got = _run(rt, "explog", np.float32([v]), np.float32([v]), 2, _POCL_KERNELS)[0]
         for g, w in ((got[0], e2), (got[1], l2)):
             assert (np.isnan(g) and np.isnan(w)) or g == w, (v, g, w)
+
+
+_PACKET_EXPLOG = r"""
+#include "core/common.h"
+#include "accel/packet.h"
+#include "accel/packet_vec.h"
+
+/* accel/packet_vec.h's pf_exp2 and pf_log2 on TX_PACKET values at once, then the scalar
+ * exp2 and log2 (core/builtins.h's) of each: out[4i ..] = pf_exp2, exp2, pf_log2, log2. */
+__kernel void pexplog(__global const float* x, __global const float* y, __global float* out, uint n)
+{
+    uint i = get_global_id(0);
+    if (i * TX_PACKET >= n) return;
+    float a[TX_PACKET], e[TX_PACKET], l[TX_PACKET];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) a[j] = x[i * TX_PACKET + j];
+    PSTORE(pf_exp2(PLOAD(a)), e);
+    PSTORE(pf_log2(PLOAD(a)), l);
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        __global float* o = out + 4 * (i * TX_PACKET + j);
+        o[0] = e[j]; o[1] = exp2(a[j]); o[2] = l[j]; o[3] = log2(a[j]);
+    }
+}
+"""
+
+
+@pytest.mark.parametrize("width", [8, 16])
+def test_pocl_packet_exp2_and_log2_are_the_scalar_ones(rt, rng, width):
+    """pf_exp2 and pf_log2 (accel/packet_vec.h: shading/light_packet.h's specular power) give
+    core/builtins.h's exp2 and log2 bit for bit in every lane: a million random bit patterns
+    (NaNs, infinities, denormals, negatives), the exponents around the specular powers' and
+    the special values; their branches as lane selects, neighbouring lanes of every kind."""
+    if "-DTX_POCL=1" not in rt.device_defines:
+        pytest.skip("core/builtins.h replaces exp2 and log2 on PoCL only")
+    from texray.device.features import compile_options, Features
+    n = 1 << 20
+    bits = rng.integers(0, 1 << 32, n, dtype=np.uint64).astype(np.uint32).view(np.float32)
+    near = rng.uniform(-160, 140, n // 4).astype(np.float32)                 # exp2's range and beyond
+    small = rng.uniform(0, 1, n // 4).astype(np.float32)                     # cosines: log2 near 0
+    den = rng.integers(1, 0x00800000, n // 8, dtype=np.uint64).astype(np.uint32).view(np.float32)   # denormals
+    x = np.concatenate([bits, near, small, den, _SPECIAL, np.float32([-150, -149.5, -149, 127.5, 127.99999, 128,
+                                                                      -0.5, 0.5, 1.5, -1.5, 2.5, 1.4142135,
+                                                                      1.4142137])])
+    x = np.concatenate([x, np.zeros((-len(x)) % width, np.float32)])
+    rng.shuffle(x)
+    opts = {**compile_options(Features(triangles=True)), "TX_PACKET": width}
+    k = build_test_program(rt, (), _PACKET_EXPLOG, [f"-D{a}={b}" for a, b in opts.items()])
+    mf = cl.mem_flags
+    bx = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
+    out = np.zeros((len(x), 4), np.float32)
+    bo = cl.Buffer(rt.context, mf.WRITE_ONLY, out.nbytes)
+    k.pexplog(rt.queue, (len(x) // width,), None, bx, bx, bo, np.uint32(len(x)))
+    cl.enqueue_copy(rt.queue, out, bo)
+    for name, mine, theirs in (("exp2", out[:, 0], out[:, 1]), ("log2", out[:, 2], out[:, 3])):
+        nan = np.isnan(mine) & np.isnan(theirs)
+        bad = np.flatnonzero((mine.view(np.uint32) != theirs.view(np.uint32)) & ~nan)
+        assert bad.size == 0, f"{name}: {bad.size} differ, e.g. x = {x[bad[0]]!r}: {mine[bad[0]]!r} against " \
+                              f"{theirs[bad[0]]!r}"
+    assert np.isnan(out[:, 2]).any() and np.isinf(out[:, 0]).any() and (out[:, 0] == 0).any()

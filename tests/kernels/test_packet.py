@@ -734,3 +734,114 @@ def test_packet_triangle_geometry_equals_triangle_geom(rt, rng, width):
     assert (out_s[tid // k_uv == 5, 3:6] == 0).all()
     sing = (tid % k_uv >= 4) & (tid // k_uv != 5) & masked
     assert sing.any() and np.allclose(np.linalg.norm(out_p[sing, 6:9], axis=1), 1, atol=1e-6)
+
+
+_LIGHT_KERNEL = r"""
+#include "core/common.h"
+#include "core/accurate.h"
+#include "shading/light.h"
+#include "accel/packet.h"
+#include "shading/light_packet.h"
+
+/* Work-item i: lanes k = TX_PACKET i .. with the 25 floats in[25 k ..] (p, ns, kd, ks,
+ * shininess, v, the light's position and intensity, c), vis[k], the first ms[i] lanes
+ * live: c += light_term lane by lane (out_s) and by light_term_packet (out_p), 3 floats
+ * each; with step 0 every lane takes lane 0's intensity. on[0] = TX_LIGHT_PACKET. */
+__kernel void light_terms(__global const float* in, __global const int* vis_in, __global const uint* ms, uint step,
+                          __global float* out_s, __global float* out_p, __global int* on, uint n)
+{
+    uint i = get_global_id(0);
+    if (i == 0) on[0] = TX_LIGHT_PACKET;
+    if (i >= n) return;
+#if TX_LIGHT_PACKET
+    Surface s[TX_PACKET];
+    float3 v[TX_PACKET], lpos[TX_PACKET], li[TX_PACKET], cs[TX_PACKET], cp[TX_PACKET];
+    uchar vis[TX_PACKET];
+    uint m = ms[i];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        __global const float* f = in + 25 * (TX_PACKET * i + j);
+        vstore3(vload3(0, f), 0, s[j].p);
+        vstore3(vload3(0, f + 3), 0, s[j].ns);
+        vstore3(vload3(0, f + 6), 0, s[j].kd);
+        vstore3(vload3(0, f + 9), 0, s[j].ks);
+        s[j].shininess = f[12];
+        s[j].valid = 1u;
+        v[j] = vload3(0, f + 13);
+        lpos[j] = vload3(0, f + 16);
+        li[j] = vload3(0, f + 19);
+        cs[j] = cp[j] = vload3(0, f + 22);
+        vis[j] = vis_in[TX_PACKET * i + j] != 0;
+    }
+    for (uint j = 0; j < m; ++j)
+        if (vis[j]) cs[j] += light_term(s + j, v[j], lpos[j], li[j * step]);
+    light_term_packet(s, v, lpos, li, step, vis, m, cp);
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        vstore3(cs[j], 0, out_s + 3 * (TX_PACKET * i + j));
+        vstore3(cp[j], 0, out_p + 3 * (TX_PACKET * i + j));
+    }
+#endif
+}
+"""
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+@pytest.mark.parametrize("step", [1, 0])
+def test_packet_light_terms_equal_light_term(rt, rng, width, step):
+    """light_term_packet (shading/light_packet.h: the fused kernel's shading on PoCL) adds
+    light_term's value bit for bit to every visible lane and nothing to the others: lights
+    from 1e-30 to 1e30 away (|l|^2 under- and overflowing: the scaled path) and at the point
+    itself, intensities not finite or at the float range's ends, surfaces lit from behind
+    (N.L <= 0), shininess 0 to 1e30 and NaN, negative kd, sums that start at -0; a light per
+    lane and one for all (step 0); partial chunks (m < lanes)."""
+    import pyopencl as cl
+    from kernel_harness import build_test_program
+    from texray.device.features import compile_options
+    n_items = 512
+    n = n_items * width
+    unit = lambda a: a / np.linalg.norm(a, axis=1, keepdims=True)
+    p = rng.normal(size=(n, 3)) * rng.choice([1.0, 1e-20, 1e20, 1e5], (n, 1), p=[0.7, 0.1, 0.1, 0.1])
+    dist = 10.0 ** rng.uniform(-30, 30, (n, 1))
+    near = rng.random(n) < 0.5                                        # ordinary distances
+    dist[near] = rng.uniform(0.5, 20, (near.sum(), 1))
+    lpos = p + unit(rng.normal(size=(n, 3))) * dist
+    lpos[::23] = p[::23]                                               # the light at the point
+    ns = unit(rng.normal(size=(n, 3)))
+    kd = rng.uniform(-0.2, 1, (n, 3))
+    ks = rng.uniform(0, 1, (n, 3))
+    shin = rng.choice([0.0, 1e-3, 1.0, 25.0, 1e4, 1e30, np.nan], n, p=[0.05, 0.1, 0.2, 0.45, 0.1, 0.05, 0.05])
+    v = unit(rng.normal(size=(n, 3)))
+    li = rng.uniform(0, 100, (n, 3))
+    li[::17] = rng.choice([np.inf, np.nan, 3.4e38, 1e-38, 0.0], (len(li[::17]), 3))
+    c = rng.uniform(0, 1, (n, 3))
+    c[::5] = -0.0
+    data = np.concatenate([p, ns, kd, ks, shin[:, None], v, lpos, li, c], axis=1).astype(np.float32)
+    assert data.shape[1] == 25
+    vis = (rng.random(n) < 0.8).astype(np.int32)
+    ms = rng.integers(1, width + 1, n_items).astype(np.uint32)
+    ms[::3] = width
+    opts = {**compile_options(Features(triangles=True)), "TX_PACKET": width, "TX_SPECULAR": 1}
+    k = build_test_program(rt, (), _LIGHT_KERNEL, [f"-D{a}={b}" for a, b in opts.items()])
+    mf = cl.mem_flags
+    ins = [cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a))
+           for a in (data, vis, ms)]
+    out_s, out_p = np.zeros((n, 3), np.float32), np.zeros((n, 3), np.float32)
+    on = np.zeros(1, np.int32)
+    bufs = [cl.Buffer(rt.context, mf.WRITE_ONLY, a.nbytes) for a in (out_s, out_p, on)]
+    k.light_terms(rt.queue, (n_items,), None, *ins, np.uint32(step), *bufs, np.uint32(n_items))
+    for a, buf in zip((out_s, out_p, on), bufs):
+        cl.enqueue_copy(rt.queue, a, buf)
+    if not on[0]:
+        assert "-DTX_POCL=1" not in rt.device_defines
+        pytest.skip("light_term_packet is compiled on PoCL only")
+    same = (out_s.view(np.uint32) == out_p.view(np.uint32)).all(axis=1)
+    bad = np.flatnonzero(~same)
+    assert bad.size == 0, f"{bad.size} lanes differ, e.g. lane {bad[0]}: inputs {data[bad[0]]}, " \
+                          f"{out_s[bad[0]]} against {out_p[bad[0]]}"
+    # the cases were met: lanes that added a term, lanes lit from behind or unlit, and
+    # distances past the float range's squares
+    lane = np.arange(n) % width
+    live = (vis == 1) & (lane < np.repeat(ms, width))
+    added = live & (out_s != data[:, 22:25]).any(axis=1)
+    assert added.sum() > n // 10 and (live & ~added).sum() > n // 10
+    d = np.linalg.norm(lpos - p, axis=1)
+    assert (added & ((d > 1e20) | (d < 1e-20))).any()

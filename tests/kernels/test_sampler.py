@@ -117,8 +117,13 @@ def test_pixels_get_different_patterns_and_seeds_are_deterministic(rt):
 _PACKET_KERNEL = r"""
 #include "core/common.h"
 #include "core/sampler.h"
+#if TX_TEST_W == 16
+#define TX_TEST_SAMPLE(s, N, m, p, x, y) cmj_sample_packet16(vload16(0, s), N, m, vload16(0, p), x, y)
+#else
+#define TX_TEST_SAMPLE(s, N, m, p, x, y) cmj_sample_packet8(vload8(0, s), N, m, vload8(0, p), x, y)
+#endif
 
-/* Per work-item: TX_PACKET samples s[lane] of patterns p[lane] (one per lane, as a chunk
+/* Per work-item: TX_TEST_W samples s[lane] of patterns p[lane] (one per lane, as a chunk
  * spanning several pixels has) with count N[i], by the scalar cmj_sample_m and by
  * cmj_sample_packet, as (x, y) pairs side by side. */
 __kernel void packet_vs_scalar(__global const uint* s, __global const uint* N, __global const uint* p,
@@ -127,12 +132,12 @@ __kernel void packet_vs_scalar(__global const uint* s, __global const uint* N, _
     uint i = get_global_id(0);
     if (i >= n) return;
     uint m = cmj_grid_m(N[i]);
-    float x[TX_PACKET], y[TX_PACKET];
-    uint sl[TX_PACKET], pl[TX_PACKET];
-    for (uint j = 0; j < TX_PACKET; ++j) { sl[j] = s[TX_PACKET * i + j]; pl[j] = p[TX_PACKET * i + j]; }
-    cmj_sample_packet(TX_CMJ_LOAD(sl), N[i], m, TX_CMJ_LOAD(pl), x, y);
-    __global float* o = out + 4 * TX_PACKET * i;
-    for (uint j = 0; j < TX_PACKET; ++j) {
+    float x[TX_TEST_W], y[TX_TEST_W];
+    uint sl[TX_TEST_W], pl[TX_TEST_W];
+    for (uint j = 0; j < TX_TEST_W; ++j) { sl[j] = s[TX_TEST_W * i + j]; pl[j] = p[TX_TEST_W * i + j]; }
+    TX_TEST_SAMPLE(sl, N[i], m, pl, x, y);
+    __global float* o = out + 4 * TX_TEST_W * i;
+    for (uint j = 0; j < TX_TEST_W; ++j) {
         float2 v = cmj_sample_m(sl[j], N[i], m, pl[j]);
         o[4 * j] = v.x; o[4 * j + 1] = v.y; o[4 * j + 2] = x[j]; o[4 * j + 3] = y[j];
     }
@@ -141,33 +146,35 @@ __kernel void packet_vs_scalar(__global const uint* s, __global const uint* N, _
 
 
 @pytest.mark.parametrize("adaptive", [0, 1])
-@pytest.mark.parametrize("width", [8, 16])
-def test_packet_samples_are_the_scalar_ones_bit_for_bit(rt, rng, width, adaptive):
-    """stages/fused.cl takes a chunk's sample positions from cmj_sample_packet: every lane
+@pytest.mark.parametrize("width,lanes", [(8, 8), (8, 16), (16, 16)])
+def test_packet_samples_are_the_scalar_ones_bit_for_bit(rt, rng, width, lanes, adaptive):
+    """stages/fused.cl takes its chunks' sample positions from cmj_sample_packet8 and 16: every lane
     must be cmj_sample_m's position bit for bit, for power-of-two counts (mask and shift)
     and others (cycle walking and divisions), for one pixel's consecutive samples (lanes past
     the count too: a partial chunk) and for lanes of different pixels (their own patterns),
     for large counts and patterns."""
     from kernel_harness import build_test_program
+    lanes = 16                                           # core/sampler.h TX_TEST_W, at either packet width
     counts = np.array([1, 2, 3, 4, 5, 7, 8, 12, 16, 30, 32, 64, 100, 127, 256, 1000, 4096, 65536, 70000],
                       np.uint32)
     N = np.repeat(counts, 40)
-    s0 = (rng.integers(0, 1 << 20, N.size) % (N + width)).astype(np.uint32)   # some chunks run past N
+    s0 = (rng.integers(0, 1 << 20, N.size) % (N + lanes)).astype(np.uint32)   # some chunks run past N
     s0[::7] = 0
-    s = (s0[:, None] + np.arange(width, dtype=np.uint32)).astype(np.uint32)
-    p = np.repeat(rng.integers(0, 1 << 32, N.size, dtype=np.uint64).astype(np.uint32)[:, None], width, axis=1)
+    s = (s0[:, None] + np.arange(lanes, dtype=np.uint32)).astype(np.uint32)
+    p = np.repeat(rng.integers(0, 1 << 32, N.size, dtype=np.uint64).astype(np.uint32)[:, None], lanes, axis=1)
     mixed = np.arange(N.size) % 2 == 1                   # chunks over several pixels: a pattern per lane
-    p[mixed] = rng.integers(0, 1 << 32, (mixed.sum(), width), dtype=np.uint64).astype(np.uint32)
-    s[mixed] = (rng.integers(0, 1 << 20, (mixed.sum(), width)) % N[mixed, None]).astype(np.uint32)
-    k = build_test_program(rt, (), _PACKET_KERNEL, (f"-DTX_PACKET={width}", f"-DTX_ADAPTIVE={adaptive}"))
+    p[mixed] = rng.integers(0, 1 << 32, (mixed.sum(), lanes), dtype=np.uint64).astype(np.uint32)
+    s[mixed] = (rng.integers(0, 1 << 20, (mixed.sum(), lanes)) % N[mixed, None]).astype(np.uint32)
+    k = build_test_program(rt, (), _PACKET_KERNEL, (f"-DTX_PACKET={width}", f"-DTX_ADAPTIVE={adaptive}",
+                                                        f"-DTX_TEST_W={lanes}"))
     mf = cl.mem_flags
     bufs = [cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a))
             for a in (s, N, p)]
-    out = np.zeros(N.size * width * 4, np.float32)
+    out = np.zeros(N.size * lanes * 4, np.float32)
     bo = cl.Buffer(rt.context, mf.WRITE_ONLY, out.nbytes)
     k.packet_vs_scalar(rt.queue, (N.size,), None, *bufs, bo, np.uint32(N.size))
     cl.enqueue_copy(rt.queue, out, bo)
-    out = out.reshape(N.size, width, 4)
+    out = out.reshape(N.size, lanes, 4)
     scalar, packet = out[..., :2], out[..., 2:]
     assert np.all((scalar >= 0) & (scalar < 1))
     assert np.array_equal(scalar.view(np.uint32), packet.view(np.uint32))

@@ -1,0 +1,101 @@
+#line 2 "shading/light_packet.h"
+/* light_term (shading/light.h) for a chunk's samples as one vector computation
+ * (stages/fused.cl with packets): each lane's surface, view vector, light and intensity
+ * gathered straight into vectors, light_term's float operations over one floatN per
+ * coordinate in its order and with its roundings (contraction off as there; dot3 and the
+ * specular power as core/common.h and core/builtins.h compile them: accel/packet_vec.h),
+ * each early return (an intensity not finite, a light at the point, N.L <= 0, a specular
+ * power out of range) a lane mask. Every lane adds light_term's value bit for bit
+ * (tests/kernels/test_packet.py). Lane by lane it was 9-10% of the frame (perf, globe and
+ * textured meshes).
+ *
+ * On PoCL only (TX_LIGHT_PACKET): the power uses core/builtins.h's exp2 and log2, which
+ * PoCL alone gets; other devices' vector divisions and square roots need not round as their
+ * scalar ones do (Intel's runtime: geometry/triangle_packet.h). */
+#ifndef TEXRAY_LIGHT_PACKET_H
+#define TEXRAY_LIGHT_PACKET_H
+#include "shading/light.h"
+#include "accel/packet.h"
+#include "accel/packet_vec.h"
+
+#if TX_PACKET && TX_POCL
+#define TX_LIGHT_PACKET 1
+
+/* c[j] += light_term(s + j, v[j], lpos[j], li[j * li_step]) for every lane j < m with vis[j]
+ * (li_step 0: one intensity for every lane). Lanes past m read lane m - 1's inputs; lanes
+ * not visible (a miss among them) compute from whatever their records hold, masked off. */
+inline void light_term_packet(const Surface* s, const float3* v, const float3* lpos, const float3* li, uint li_step,
+                              const uchar* vis, uint m, float3* c)
+{
+    if (m == 0u) return;
+#define TX_LT_J(j) TX_MIN((uint)(j), m - 1u)
+#define TX_LT_VIS(j) (vis[TX_LT_J(j)] ? -1 : 0)
+    pint ok = (pint)PGATHER(TX_LT_VIS);
+    if (!any(ok)) return;
+/* a Surface field's three floats, a float3 array's elements and the intensities as pfloat3s */
+#define TX_LT_SF(j, f) s[TX_LT_J(j)].f
+#define TX_LT_S3(f) pf3((pfloat)PGATHER_A(TX_LT_SF, f[0]), (pfloat)PGATHER_A(TX_LT_SF, f[1]), \
+                        (pfloat)PGATHER_A(TX_LT_SF, f[2]))
+#define TX_LT_AX(j, a) a[TX_LT_J(j)].x
+#define TX_LT_AY(j, a) a[TX_LT_J(j)].y
+#define TX_LT_AZ(j, a) a[TX_LT_J(j)].z
+#define TX_LT_A3(a) pf3((pfloat)PGATHER_A(TX_LT_AX, a), (pfloat)PGATHER_A(TX_LT_AY, a), (pfloat)PGATHER_A(TX_LT_AZ, a))
+#define TX_LT_IX(j, a) a[TX_LT_J(j) * li_step].x
+#define TX_LT_IY(j, a) a[TX_LT_J(j) * li_step].y
+#define TX_LT_IZ(j, a) a[TX_LT_J(j) * li_step].z
+    pfloat3 p = TX_LT_S3(p), nrm = TX_LT_S3(ns), lp = TX_LT_A3(lpos);
+    pfloat3 in = pf3((pfloat)PGATHER_A(TX_LT_IX, li), (pfloat)PGATHER_A(TX_LT_IY, li), (pfloat)PGATHER_A(TX_LT_IZ, li));
+    /* light_term's degenerate cases (shading/light.h), as lane masks */
+    ok &= (fabs(in.x) <= FLT_MAX) & (fabs(in.y) <= FLT_MAX) & (fabs(in.z) <= FLT_MAX);
+    pfloat3 l = pf3_sub(lp, p);
+    pfloat d2 = pf3_dot(l, l);
+    pint scaled = ~((d2 >= FLT_MIN) & (d2 <= FLT_MAX));
+    if (any(scaled & ok)) {
+        pfloat mx = PMAX(PMAX(fabs(l.x), fabs(l.y)), fabs(l.z));
+        ok &= ~scaled | ((mx > 0.0f) & (mx <= FLT_MAX));
+        pfloat3 ls = pf3(l.x / mx, l.y / mx, l.z / mx);
+        l = pf3_sel(scaled, ls, l);
+        d2 = PSEL_F(scaled, pf3_dot(ls, ls), d2);
+        in = pf3_sel(scaled, pf3(in.x / mx / mx, in.y / mx / mx, in.z / mx / mx), in);
+    }
+    l = pf3_scale(rsqrt(d2), l);
+    pfloat ndl = pf3_dot(nrm, l);
+    ok &= ndl > 0.0f;
+    pfloat3 term = pf3_splat((float3)(0.0f));
+    if (any(ok)) {
+        term = pf3_scale(ndl, TX_LT_S3(kd));
+        if (TX_SPECULAR) {
+            pfloat3 r = pf3_sub(pf3_scale(2.0f * ndl, nrm), l);
+            pfloat rv = pf3_dot(r, TX_LT_A3(v));
+            pint spec = ok & (rv > 0.0f);
+            if (any(spec)) {
+                pfloat sp = pf_exp2((pfloat)PGATHER_A(TX_LT_SF, shininess) * pf_log2(rv));
+                spec &= (sp >= 0.0f) & (sp <= FLT_MAX);
+                term = pf3_sel(spec, pf3_add(term, pf3_scale(sp, TX_LT_S3(ks))), term);
+            }
+        }
+    }
+    /* every visible lane adds its term, 0 where light_term returns 0 (as the scalar code adds) */
+    float o[3][TX_PACKET];
+    PSTORE(PSEL_F(ok, in.x * (term.x / d2), (pfloat)(0.0f)), o[0]);
+    PSTORE(PSEL_F(ok, in.y * (term.y / d2), (pfloat)(0.0f)), o[1]);
+    PSTORE(PSEL_F(ok, in.z * (term.z / d2), (pfloat)(0.0f)), o[2]);
+    for (uint j = 0; j < m; ++j)
+        if (vis[j]) c[j] += (float3)(o[0][j], o[1][j], o[2][j]);
+#undef TX_LT_J
+#undef TX_LT_VIS
+#undef TX_LT_SF
+#undef TX_LT_S3
+#undef TX_LT_AX
+#undef TX_LT_AY
+#undef TX_LT_AZ
+#undef TX_LT_A3
+#undef TX_LT_IX
+#undef TX_LT_IY
+#undef TX_LT_IZ
+}
+#else
+#define TX_LIGHT_PACKET 0
+#endif
+
+#endif
