@@ -22,7 +22,9 @@
  * three marked TX_OUT_OF_LINE (bvh_closest_v, bvh_any_v in accel/bvh.h, surface_eval_v
  * in stages/surface.cl: large, with several callers), which take float4, are not
  * declared inline: left out of line, they keep the kernels that call them vectorizable.
- * (PoCL inlines every function into its kernels whatever the keyword.) */
+ * (PoCL's LLVM inlines by its own cost model whatever the keyword: a large helper with
+ * several callers stays a call there, its struct arguments and result passed through
+ * memory, unless marked always_inline, as texture/texture.h's bilinear lookup is.) */
 #if defined(__INTEL_LLVM_COMPILER)
 #define inline inline __attribute__((always_inline))
 #endif

@@ -123,6 +123,15 @@ inline int leaf_hit(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 dir, fl
  * the analytic records carry them). */
 typedef struct { uint material, object, prim; } PrimIds;
 
+/* *g = *s, field by field: a 16-byte load for each 16-byte field. The fused kernel's packets
+ * write s (accel/packet_vec.h geom_store_packet) just before surface_eval reads it, a store per
+ * field; the struct copy's 32-byte loads each spanned two of those stores, which a CPU cannot
+ * forward to a load: each waited for the stores to reach the cache. */
+inline void geom_copy(Geom* g, const Geom* s)
+{
+    g->p = s->p; g->ng = s->ng; g->dpdu = s->dpdu; g->dpdv = s->dpdv; g->uv = s->uv; g->perr = s->perr;
+}
+
 /* `static`: called once, so inlined into surface_eval (shading/surface.h explains).
  * Surface geometry of the hit h of the ray (org, dir) into *g, by kind (each kind's
  * *_geom: the point, its error bound, the geometric normal, uv and dP/du, dP/dv with
@@ -138,7 +147,7 @@ static inline PrimIds hit_geom(TX_GEOM_PARAMS, __global const TriShade* tri_shad
     if (kind == PRIM_TRIANGLE) {
         __global const TriShade* ts = tri_shade + idx;
         if (pre)
-            *g = *pre;
+            geom_copy(g, pre);
         else
             triangle_geom(tris + idx, ts, h->b1, h->b2, uvs, g);
         ids.material = ts->material; ids.object = ts->object; ids.prim = ts->prim;
@@ -147,7 +156,7 @@ static inline PrimIds hit_geom(TX_GEOM_PARAMS, __global const TriShade* tri_shad
     else if (kind == PRIM_SPHERE) {
         __global const Sphere* sp = spheres + idx;
         if (pre)
-            *g = *pre;
+            geom_copy(g, pre);
         else
             sphere_geom(sp, org, dir, h->t, g);
         ids.material = sp->material; ids.object = sp->object; ids.prim = sp->prim;
@@ -164,7 +173,7 @@ static inline PrimIds hit_geom(TX_GEOM_PARAMS, __global const TriShade* tri_shad
     else if (kind == PRIM_QUAD) {
         __global const QuadShade* qs = quad_shade + idx;
         if (pre)
-            *g = *pre;
+            geom_copy(g, pre);
         else
             quad_geom(quads + idx, qs, (float2)(h->b1, h->b2), g);
         ids.material = qs->material; ids.object = qs->object; ids.prim = qs->prim;

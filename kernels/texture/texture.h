@@ -67,7 +67,12 @@ inline float4 texel(__global const half* texels, __global const TextureInfo* ti,
  * every wrap mode allows (wrap.h). */
 typedef struct { float4 t00, t10, t01, t11; float ax, ay; } BilinearTaps;
 
-inline BilinearTaps bilinear_taps(__global const half* texels, TexLevel lv, int mode, float2 uv)
+/* bilinear_taps and texture_bilinear_level are always inlined: PoCL left them calls, the
+ * taps returned through memory (perf, globe: the loads after the call were the hottest
+ * instructions of the surface stage); inlined, tools/ab.py measured 0.96-0.97 of the frame
+ * time on the globe, the bumped brick wall and the grazing quad (README, Performance). */
+static inline __attribute__((always_inline)) BilinearTaps bilinear_taps(__global const half* texels, TexLevel lv,
+                                                                        int mode, float2 uv)
 {
     float x = wrap_reduce(uv.x, mode) * (float)lv.w - 0.5f;
     float y = (1.0f - wrap_reduce(uv.y, mode)) * (float)lv.h - 0.5f;
@@ -80,7 +85,8 @@ inline BilinearTaps bilinear_taps(__global const half* texels, TexLevel lv, int 
 }
 
 /* Bilinear filtering of one level in wrap mode `mode` (bilinear_taps). */
-inline float4 texture_bilinear_level(__global const half* texels, TexLevel lv, int mode, float2 uv)
+static inline __attribute__((always_inline)) float4 texture_bilinear_level(__global const half* texels, TexLevel lv,
+                                                                           int mode, float2 uv)
 {
     BilinearTaps k = bilinear_taps(texels, lv, mode, uv);
     return (k.t00 * (1.0f - k.ax) + k.t10 * k.ax) * (1.0f - k.ay) + (k.t01 * (1.0f - k.ax) + k.t11 * k.ax) * k.ay;

@@ -341,6 +341,38 @@ def test_packet_rule():
     assert packet_width(Features.generic(), "pocl", 16) == 8
 
 
+def test_tracer_packet_rule(monkeypatch):
+    """The Tracer's batches of rays take the kind's width of PACKET_WIDTHS on every scene
+    (8 on PoCL: triangles alone too, where frames take 16), none on other kinds or without
+    shadows; TEXRAY_PACKET overrides it as it does the renderer's rule."""
+    from texray.device.features import trace_packet_width
+    monkeypatch.delenv("TEXRAY_PACKET", raising=False)
+    tri = Features(shadows=True, triangles=True)
+    mix = Features(shadows=True, triangles=True, spheres=True)
+    assert trace_packet_width(tri, "pocl") == 8 and packet_width(tri, "pocl", 16) == 16
+    assert trace_packet_width(mix, "pocl") == 8
+    assert trace_packet_width(tri, "nvidia") == 0 and trace_packet_width(tri, "intel-cpu") == 0
+    assert trace_packet_width(tri, None) == 0
+    assert trace_packet_width(Features(shadows=False, triangles=True), "pocl") == 0
+    for w in (0, 8, 16):
+        monkeypatch.setenv("TEXRAY_PACKET", str(w))
+        assert trace_packet_width(tri, "pocl") == w
+    monkeypatch.setenv("TEXRAY_PACKET", "4")
+    with pytest.raises(DeviceError):
+        trace_packet_width(tri, "pocl")
+
+
+def test_tracer_takes_its_rule(device, monkeypatch):
+    """A Tracer on a scene of triangles alone builds the rule's width (8 lanes on PoCL)."""
+    from texray.device.features import trace_packet_width
+    monkeypatch.delenv("TEXRAY_PACKET", raising=False)
+    tr = Tracer(_soup(np.random.default_rng(3), 50), device)
+    f = dataclasses.replace(tr.compiled.features, shadows=True)
+    assert tr.packet == trace_packet_width(f, tr.rt.kind)
+    if tr.rt.kind == "pocl":
+        assert tr.packet == 8 and packet_width(f, "pocl", 16) == 16
+
+
 def test_renders_choose_packets_by_samples_per_launch(device, monkeypatch):
     """render() builds the packet program where the device's rule has packets (any spp,
     adaptive rounds too); stats say which."""

@@ -149,6 +149,21 @@ def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN
     return width if f.shadows else 0
 
 
+def trace_packet_width(f: Features, device_kind: str | None) -> int:
+    """TX_PACKET for :class:`texray.renderer.trace.Tracer`, whose batches of arbitrary rays
+    (the bench's: one per pixel, in raster order) fill a packet with neighbouring pixels' rays,
+    not with one pixel's samples as the renderer's packets do: the kind's width of
+    :data:`PACKET_WIDTHS` for every scene (8 on PoCL), also for triangles alone. On an AMD EPYC
+    (PoCL's LLVM 14 emits AVX2 there) 8 lanes traced the bench's 1M-triangle mesh faster than 16:
+    primary rays 12.1 and 13.6 against 11.9 and 11.6 Mrays/s, shadow rays 10.7 and 10.7 against
+    9.3 and 8.8 (2026-12-06, ``TEXRAY_PACKET=8|16 texray bench --scenes '' --repeat 9``, two
+    alternations). ``TEXRAY_PACKET`` overrides it as it does :func:`packet_width`."""
+    override = os.environ.get("TEXRAY_PACKET")
+    if override is not None and override.strip() != "":
+        return packet_width(f, device_kind)
+    return PACKET_WIDTHS.get(device_kind, 0) if f.shadows else 0
+
+
 def pixels_per_item(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES) -> int:
     """The pixels each work-item of the fused kernel takes (stages/fused.cl's `pixels`): with
     packets (:func:`packet_width`), the count p <= the packet's width whose p x ``samples``

@@ -14,7 +14,7 @@ import pyopencl as cl
 from ..compile import CompiledScene, compile_scene
 from ..device import layout, runtime
 from ..device.buffers import Uploaded
-from ..device.features import compile_options
+from ..device.features import compile_options, trace_packet_width
 
 
 @dataclass
@@ -33,12 +33,14 @@ class Tracer:
         cs = scene_or_compiled if isinstance(scene_or_compiled, CompiledScene) else compile_scene(scene_or_compiled)
         self.compiled = cs
         self.rt = runtime(device)
-        # as a render with shadow rays would build it (a scene without lights has none)
-        options = compile_options(dataclasses.replace(cs.features, shadows=True), self.rt.kind)
+        # as a render with shadow rays would build it (a scene without lights has none), with
+        # packets of `packet` rays per work-item where the device has them: the width for
+        # batches of rays, a lane each (texray.device.features.trace_packet_width)
+        features = dataclasses.replace(cs.features, shadows=True)
+        options = compile_options(features, self.rt.kind)
+        options["TX_PACKET"] = trace_packet_width(features, self.rt.kind)
         self.program = self.rt.program(options)
         self.up = Uploaded(self.rt.context, cs)
-        # packets of `packet` rays per work-item where the program has them, as the renderer's
-        # camera and shadow rays on this device (texray.device.features.packet_width)
         self.packet = options["TX_PACKET"]
         closest_packet = self.packet and not cs.features.instances
         self._k_closest = cl.Kernel(self.program, "intersect_packet" if closest_packet else "intersect")
