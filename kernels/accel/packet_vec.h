@@ -155,4 +155,16 @@ inline uint packet_first_lane(const int* ml)
     return k0;
 }
 
+/* Whether every lane of the stored mask ml holds idx[k0] (k0: its first lane,
+ * packet_first_lane): then a packet geometry reads that one primitive once, as vectors of one
+ * value, instead of gathering it lane by lane (the same values, so the same bits). */
+inline int packet_one_index(const int* ml, const uint* idx, uint k0)
+{
+    uint i0 = idx[k0];
+    int same = 1;
+    for (uint j = 0; j < (uint)TX_PACKET; ++j)
+        same &= !ml[j] || idx[j] == i0;
+    return same;
+}
+
 #endif

@@ -89,18 +89,33 @@ inline void quad_geom_packet(__global const QuadVerts* quads, __global const Qua
     int ml[TX_PACKET];
     PSTORE(m, ml);
     uint k0 = packet_first_lane(ml);                /* the other lanes read its quad */
-    float lp[12][TX_PACKET], lt[8][TX_PACKET];
-    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
-        uint i = idx[ml[j] ? j : k0];
+    pfloat3 p0, p1, p2, p3;
+    pfloat t0x, t0y, t1x, t1y, t2x, t2y, t3x, t3y;
+    if (packet_one_index(ml, idx, k0)) {            /* every lane on one quad (a wall, a floor): read once */
+        uint i = idx[k0];
         __global const QuadVerts* qv = quads + i;
-        float3 c[4] = { quad_p0(qv), quad_p1(qv), quad_p2(qv), quad_p3(qv) };
-        for (int k = 0; k < 4; ++k) { lp[3 * k][j] = c[k].x; lp[3 * k + 1][j] = c[k].y; lp[3 * k + 2][j] = c[k].z; }
-        for (int k = 0; k < 8; ++k) lt[k][j] = quad_shade[i].uv[k];
-    }
+        __global const float* t = quad_shade[i].uv;
+        p0 = pf3_splat(quad_p0(qv)); p1 = pf3_splat(quad_p1(qv));
+        p2 = pf3_splat(quad_p2(qv)); p3 = pf3_splat(quad_p3(qv));
+        t0x = (pfloat)(t[0]); t0y = (pfloat)(t[1]); t1x = (pfloat)(t[2]); t1y = (pfloat)(t[3]);
+        t2x = (pfloat)(t[4]); t2y = (pfloat)(t[5]); t3x = (pfloat)(t[6]); t3y = (pfloat)(t[7]);
+    } else {
+        float lp[12][TX_PACKET], lt[8][TX_PACKET];
+        for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+            uint i = idx[ml[j] ? j : k0];
+            __global const QuadVerts* qv = quads + i;
+            float3 c[4] = { quad_p0(qv), quad_p1(qv), quad_p2(qv), quad_p3(qv) };
+            for (int k = 0; k < 4; ++k) { lp[3 * k][j] = c[k].x; lp[3 * k + 1][j] = c[k].y; lp[3 * k + 2][j] = c[k].z; }
+            for (int k = 0; k < 8; ++k) lt[k][j] = quad_shade[i].uv[k];
+        }
 #define TX_QG_P(k) pf3((pfloat)(TX_LANES(lp[3 * (k)])), (pfloat)(TX_LANES(lp[3 * (k) + 1])), \
                        (pfloat)(TX_LANES(lp[3 * (k) + 2])))
-    pfloat3 p0 = TX_QG_P(0), p1 = TX_QG_P(1), p2 = TX_QG_P(2), p3 = TX_QG_P(3);
+        p0 = TX_QG_P(0); p1 = TX_QG_P(1); p2 = TX_QG_P(2); p3 = TX_QG_P(3);
 #undef TX_QG_P
+        t0x = (pfloat)(TX_LANES(lt[0])); t0y = (pfloat)(TX_LANES(lt[1])); t1x = (pfloat)(TX_LANES(lt[2]));
+        t1y = (pfloat)(TX_LANES(lt[3])); t2x = (pfloat)(TX_LANES(lt[4])); t2y = (pfloat)(TX_LANES(lt[5]));
+        t3x = (pfloat)(TX_LANES(lt[6])); t3y = (pfloat)(TX_LANES(lt[7]));
+    }
     pfloat omv = 1.0f - v, omu = 1.0f - u;
     pfloat3 pu = pf3_add(pf3_scale(omv, pf3_sub(p1, p0)), pf3_scale(v, pf3_sub(p2, p3)));
     pfloat3 pv = pf3_add(pf3_scale(omu, pf3_sub(p3, p0)), pf3_scale(u, pf3_sub(p2, p1)));
@@ -117,9 +132,6 @@ inline void quad_geom_packet(__global const QuadVerts* quads, __global const Qua
     n = pf3_sel(pf3_dot(n, n) > 9.094947e-13f, n, nm);
     pfloat3 ng = pf3_unit_or(n, pf3_splat((float3)(0.0f, 0.0f, 1.0f)));
     /* quad_texcoords */
-    pfloat t0x = (pfloat)(TX_LANES(lt[0])), t0y = (pfloat)(TX_LANES(lt[1])), t1x = (pfloat)(TX_LANES(lt[2]));
-    pfloat t1y = (pfloat)(TX_LANES(lt[3])), t2x = (pfloat)(TX_LANES(lt[4])), t2y = (pfloat)(TX_LANES(lt[5]));
-    pfloat t3x = (pfloat)(TX_LANES(lt[6])), t3y = (pfloat)(TX_LANES(lt[7]));
     pfloat tax = t0x + u * (t1x - t0x), tay = t0y + u * (t1y - t0y);
     pfloat tbx = t3x + u * (t2x - t3x), tby = t3y + u * (t2y - t3y);
     pfloat gu = tax + v * (tbx - tax), gv = tay + v * (tby - tay);

@@ -138,19 +138,30 @@ inline void sphere_geom_packet(__global const Sphere* spheres, const uint* idx, 
     int ml[TX_PACKET];
     PSTORE(m, ml);
     uint k0 = packet_first_lane(ml);                /* the other lanes read its sphere */
-    float lc[4][TX_PACKET], lx[3][TX_PACKET], lz[3][TX_PACKET];
-    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
-        __global const Sphere* sp = spheres + idx[ml[j] ? j : k0];
+    pfloat3 c, AX, AZ;
+    pfloat r;
+    if (packet_one_index(ml, idx, k0)) {            /* every lane on one sphere: read once */
+        __global const Sphere* sp = spheres + idx[k0];
         float4 cr = sphere_center_radius(sp);
-        float3 ax = sphere_axis_x(sp), az = sphere_axis_z(sp);
-        lc[0][j] = cr.x; lc[1][j] = cr.y; lc[2][j] = cr.z; lc[3][j] = cr.w;
-        lx[0][j] = ax.x; lx[1][j] = ax.y; lx[2][j] = ax.z;
-        lz[0][j] = az.x; lz[1][j] = az.y; lz[2][j] = az.z;
+        c = pf3_splat(cr.xyz);
+        r = (pfloat)(cr.w);
+        AX = pf3_splat(sphere_axis_x(sp));
+        AZ = pf3_splat(sphere_axis_z(sp));
+    } else {
+        float lc[4][TX_PACKET], lx[3][TX_PACKET], lz[3][TX_PACKET];
+        for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+            __global const Sphere* sp = spheres + idx[ml[j] ? j : k0];
+            float4 cr = sphere_center_radius(sp);
+            float3 ax = sphere_axis_x(sp), az = sphere_axis_z(sp);
+            lc[0][j] = cr.x; lc[1][j] = cr.y; lc[2][j] = cr.z; lc[3][j] = cr.w;
+            lx[0][j] = ax.x; lx[1][j] = ax.y; lx[2][j] = ax.z;
+            lz[0][j] = az.x; lz[1][j] = az.y; lz[2][j] = az.z;
+        }
+        c = pf3((pfloat)(TX_LANES(lc[0])), (pfloat)(TX_LANES(lc[1])), (pfloat)(TX_LANES(lc[2])));
+        r = (pfloat)(TX_LANES(lc[3]));
+        AX = pf3((pfloat)(TX_LANES(lx[0])), (pfloat)(TX_LANES(lx[1])), (pfloat)(TX_LANES(lx[2])));
+        AZ = pf3((pfloat)(TX_LANES(lz[0])), (pfloat)(TX_LANES(lz[1])), (pfloat)(TX_LANES(lz[2])));
     }
-    pfloat3 c = pf3((pfloat)(TX_LANES(lc[0])), (pfloat)(TX_LANES(lc[1])), (pfloat)(TX_LANES(lc[2])));
-    pfloat r = (pfloat)(TX_LANES(lc[3]));
-    pfloat3 AX = pf3((pfloat)(TX_LANES(lx[0])), (pfloat)(TX_LANES(lx[1])), (pfloat)(TX_LANES(lx[2])));
-    pfloat3 AZ = pf3((pfloat)(TX_LANES(lz[0])), (pfloat)(TX_LANES(lz[1])), (pfloat)(TX_LANES(lz[2])));
     /* sphere_ray */
     pfloat3 fh, fl;
     pf3_two_diff(org, c, &fh, &fl);

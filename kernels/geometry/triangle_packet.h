@@ -42,22 +42,42 @@ inline void triangle_geom_packet(__global const TriVerts* tris, __global const T
     int ml[TX_PACKET];
     PSTORE(m, ml);
     uint k0 = packet_first_lane(ml);                /* the other lanes read its triangle */
-    float lp[9][TX_PACKET], lt[6][TX_PACKET];
-    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
-        uint i = idx[ml[j] ? j : k0];
+    pfloat3 p0, p1, p2;
+    pfloat t0x, t0y, t1x, t1y, t2x, t2y;
+    if (packet_one_index(ml, idx, k0)) {            /* every lane on one triangle: read once */
+        uint i = idx[k0];
         __global const TriVerts* tv = tris + i;
-        float3 c[3] = { tri_p0(tv), tri_p1(tv), tri_p2(tv) };
-        for (int k = 0; k < 3; ++k) { lp[3 * k][j] = c[k].x; lp[3 * k + 1][j] = c[k].y; lp[3 * k + 2][j] = c[k].z; }
+        p0 = pf3_splat(tri_p0(tv)); p1 = pf3_splat(tri_p1(tv)); p2 = pf3_splat(tri_p2(tv));
         __global const TriShade* ts = tri_shade + i;
         float2 t0 = (float2)(0.0f, 0.0f), t1 = (float2)(1.0f, 0.0f), t2 = (float2)(0.0f, 1.0f);
         if (uvs != 0 && (ts->flags & TRI_HAS_UVS)) {
             t0 = vload2(ts->v[0], uvs); t1 = vload2(ts->v[1], uvs); t2 = vload2(ts->v[2], uvs);
         }
-        lt[0][j] = t0.x; lt[1][j] = t0.y; lt[2][j] = t1.x; lt[3][j] = t1.y; lt[4][j] = t2.x; lt[5][j] = t2.y;
-    }
-#define TX_TG_P(k) pf3(PLOAD(lp[3 * (k)]), PLOAD(lp[3 * (k) + 1]), PLOAD(lp[3 * (k) + 2]))
-    pfloat3 p0 = TX_TG_P(0), p1 = TX_TG_P(1), p2 = TX_TG_P(2);
+        t0x = (pfloat)(t0.x); t0y = (pfloat)(t0.y); t1x = (pfloat)(t1.x);
+        t1y = (pfloat)(t1.y); t2x = (pfloat)(t2.x); t2y = (pfloat)(t2.y);
+    } else {
+        float lp[9][TX_PACKET], lt[6][TX_PACKET];
+        for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+            uint i = idx[ml[j] ? j : k0];
+            __global const TriVerts* tv = tris + i;
+            float3 c[3] = { tri_p0(tv), tri_p1(tv), tri_p2(tv) };
+            for (int k = 0; k < 3; ++k) { lp[3 * k][j] = c[k].x; lp[3 * k + 1][j] = c[k].y; lp[3 * k + 2][j] = c[k].z; }
+            __global const TriShade* ts = tri_shade + i;
+            float2 t0 = (float2)(0.0f, 0.0f), t1 = (float2)(1.0f, 0.0f), t2 = (float2)(0.0f, 1.0f);
+            if (uvs != 0 && (ts->flags & TRI_HAS_UVS)) {
+                t0 = vload2(ts->v[0], uvs); t1 = vload2(ts->v[1], uvs); t2 = vload2(ts->v[2], uvs);
+            }
+            lt[0][j] = t0.x; lt[1][j] = t0.y; lt[2][j] = t1.x; lt[3][j] = t1.y; lt[4][j] = t2.x; lt[5][j] = t2.y;
+        }
+        /* read back lane by lane (TX_LANES), not as one vector load (PLOAD) spanning the lanes'
+         * scalar stores just made, which cannot be forwarded to it */
+#define TX_TG_P(k) pf3((pfloat)(TX_LANES(lp[3 * (k)])), (pfloat)(TX_LANES(lp[3 * (k) + 1])), \
+                       (pfloat)(TX_LANES(lp[3 * (k) + 2])))
+        p0 = TX_TG_P(0); p1 = TX_TG_P(1); p2 = TX_TG_P(2);
 #undef TX_TG_P
+        t0x = (pfloat)(TX_LANES(lt[0])); t0y = (pfloat)(TX_LANES(lt[1])); t1x = (pfloat)(TX_LANES(lt[2]));
+        t1y = (pfloat)(TX_LANES(lt[3])); t2x = (pfloat)(TX_LANES(lt[4])); t2y = (pfloat)(TX_LANES(lt[5]));
+    }
     pfloat b0 = 1.0f - b1 - b2;
     pfloat3 e1 = pf3_sub(p1, p0), e2 = pf3_sub(p2, p0);
     pfloat3 q0 = pf3_scale(b0, p0), q1 = pf3_scale(b1, p1), q2 = pf3_scale(b2, p2);
@@ -70,8 +90,6 @@ inline void triangle_geom_packet(__global const TriVerts* tris, __global const T
         nc = pf3_sel(fin, nc, pf3_cross(pf3(e1.x / m1, e1.y / m1, e1.z / m1), pf3(e2.x / m2, e2.y / m2, e2.z / m2)));
     }
     pfloat3 ng = pf3_normalize3(nc);
-    pfloat t0x = PLOAD(lt[0]), t0y = PLOAD(lt[1]), t1x = PLOAD(lt[2]), t1y = PLOAD(lt[3]);
-    pfloat t2x = PLOAD(lt[4]), t2y = PLOAD(lt[5]);
     pfloat u = b0 * t0x + b1 * t1x + b2 * t2x, v = b0 * t0y + b1 * t1y + b2 * t2y;
     /* reparam_tangents(uv1 - uv0, uv2 - uv0, e1, e2) (core/frame.h) */
     pfloat jux = t1x - t0x, juy = t1y - t0y, jvx = t2x - t0x, jvy = t2y - t0y;
