@@ -165,6 +165,17 @@ inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, ui
 /* TriVerts is three float4 (xyz, pad), read by tri_p0..tri_p2: accessors generated
  * from the dtype (texray.device.layout.VECTOR_VIEWS). */
 
+/* The triangle's corners' texture coordinates: its mesh's uvs where it has them, else
+ * (0, 0), (1, 0), (0, 1). */
+inline void tri_corner_uvs(__global const TriShade* ts, __global const float* uvs, float2* uv0, float2* uv1,
+                           float2* uv2)
+{
+    *uv0 = (float2)(0.0f, 0.0f); *uv1 = (float2)(1.0f, 0.0f); *uv2 = (float2)(0.0f, 1.0f);
+    if (uvs != 0 && (ts->flags & TRI_HAS_UVS)) {
+        *uv0 = vload2(ts->v[0], uvs); *uv1 = vload2(ts->v[1], uvs); *uv2 = vload2(ts->v[2], uvs);
+    }
+}
+
 /* Surface geometry of a triangle hit (b1, b2): the lecture's barycentric form
  * P = (1 - b1 - b2) P0 + b1 P1 + b2 P2 for the point and the texture
  * coordinates; ng = normalize((P1 - P0) x (P2 - P0)), the side the vertex
@@ -189,10 +200,8 @@ inline void triangle_geom(__global const TriVerts* tv, __global const TriShade* 
         nc = cross3(e1 / TX_MAX(TX_MAX(fabs(e1.x), fabs(e1.y)), fabs(e1.z)),   /* give its direction */
                     e2 / TX_MAX(TX_MAX(fabs(e2.x), fabs(e2.y)), fabs(e2.z)));
     g->ng = normalize3(nc);            /* core/common.h: also where |nc|^2 under- or overflows */
-    float2 uv0 = (float2)(0.0f, 0.0f), uv1 = (float2)(1.0f, 0.0f), uv2 = (float2)(0.0f, 1.0f);
-    if (uvs != 0 && (ts->flags & TRI_HAS_UVS)) {
-        uv0 = vload2(ts->v[0], uvs); uv1 = vload2(ts->v[1], uvs); uv2 = vload2(ts->v[2], uvs);
-    }
+    float2 uv0, uv1, uv2;
+    tri_corner_uvs(ts, uvs, &uv0, &uv1, &uv2);
     g->uv = b0 * uv0 + b1 * uv1 + b2 * uv2;
     if (!reparam_tangents(uv1 - uv0, uv2 - uv0, e1, e2, &g->dpdu, &g->dpdv)) {
         g->dpdu = any_tangent(g->ng);

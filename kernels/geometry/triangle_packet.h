@@ -48,11 +48,8 @@ inline void triangle_geom_packet(__global const TriVerts* tris, __global const T
         uint i = idx[k0];
         __global const TriVerts* tv = tris + i;
         p0 = pf3_splat(tri_p0(tv)); p1 = pf3_splat(tri_p1(tv)); p2 = pf3_splat(tri_p2(tv));
-        __global const TriShade* ts = tri_shade + i;
-        float2 t0 = (float2)(0.0f, 0.0f), t1 = (float2)(1.0f, 0.0f), t2 = (float2)(0.0f, 1.0f);
-        if (uvs != 0 && (ts->flags & TRI_HAS_UVS)) {
-            t0 = vload2(ts->v[0], uvs); t1 = vload2(ts->v[1], uvs); t2 = vload2(ts->v[2], uvs);
-        }
+        float2 t0, t1, t2;
+        tri_corner_uvs(tri_shade + i, uvs, &t0, &t1, &t2);
         t0x = (pfloat)(t0.x); t0y = (pfloat)(t0.y); t1x = (pfloat)(t1.x);
         t1y = (pfloat)(t1.y); t2x = (pfloat)(t2.x); t2y = (pfloat)(t2.y);
     } else {
@@ -62,11 +59,8 @@ inline void triangle_geom_packet(__global const TriVerts* tris, __global const T
             __global const TriVerts* tv = tris + i;
             float3 c[3] = { tri_p0(tv), tri_p1(tv), tri_p2(tv) };
             for (int k = 0; k < 3; ++k) { lp[3 * k][j] = c[k].x; lp[3 * k + 1][j] = c[k].y; lp[3 * k + 2][j] = c[k].z; }
-            __global const TriShade* ts = tri_shade + i;
-            float2 t0 = (float2)(0.0f, 0.0f), t1 = (float2)(1.0f, 0.0f), t2 = (float2)(0.0f, 1.0f);
-            if (uvs != 0 && (ts->flags & TRI_HAS_UVS)) {
-                t0 = vload2(ts->v[0], uvs); t1 = vload2(ts->v[1], uvs); t2 = vload2(ts->v[2], uvs);
-            }
+            float2 t0, t1, t2;
+            tri_corner_uvs(tri_shade + i, uvs, &t0, &t1, &t2);
             lt[0][j] = t0.x; lt[1][j] = t0.y; lt[2][j] = t1.x; lt[3][j] = t1.y; lt[4][j] = t2.x; lt[5][j] = t2.y;
         }
         /* read back lane by lane (TX_LANES), not as one vector load (PLOAD) spanning the lanes'

@@ -131,11 +131,13 @@ def triangles_only(f: Features) -> bool:
                                 or f.instances)
 
 
-def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES) -> int:
+def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES,
+                 rays: bool = False) -> int:
     """TX_PACKET for a program of features ``f`` on a device of ``device_kind``
     (``texray.device.opencl``'s kinds) whose fused launches sum ``samples`` samples per
     pixel: the kind's width from :data:`PACKET_WIDTHS` (:data:`PACKET_WIDTHS_TRIANGLES` for
-    scenes of triangles alone, :func:`triangles_only`) at any count (:func:`pixels_per_item`
+    scenes of triangles alone, :func:`triangles_only`, unless ``rays``: a program tracing
+    batches of rays, :func:`trace_packet_width`) at any count (:func:`pixels_per_item`
     fills the lanes), with shadow rays; else 0 (no packets). ``TEXRAY_PACKET`` (0, 8 or 16)
     overrides the rule for A/B runs. The images are the same whatever the width (accel/packet.h says when a
     closest hit may differ: within rounding of another hit; no scene's image did)."""
@@ -145,7 +147,7 @@ def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN
             raise DeviceError(f"TEXRAY_PACKET: expected 0, 8 or 16, got {override!r}")
         width = int(override)
     else:
-        width = (PACKET_WIDTHS_TRIANGLES if triangles_only(f) else PACKET_WIDTHS).get(device_kind, 0)
+        width = (PACKET_WIDTHS_TRIANGLES if triangles_only(f) and not rays else PACKET_WIDTHS).get(device_kind, 0)
     return width if f.shadows else 0
 
 
@@ -158,10 +160,7 @@ def trace_packet_width(f: Features, device_kind: str | None) -> int:
     primary rays 12.1 and 13.6 against 11.9 and 11.6 Mrays/s, shadow rays 10.7 and 10.7 against
     9.3 and 8.8 (2026-12-06, ``TEXRAY_PACKET=8|16 texray bench --scenes '' --repeat 9``, two
     alternations). ``TEXRAY_PACKET`` overrides it as it does :func:`packet_width`."""
-    override = os.environ.get("TEXRAY_PACKET")
-    if override is not None and override.strip() != "":
-        return packet_width(f, device_kind)
-    return PACKET_WIDTHS.get(device_kind, 0) if f.shadows else 0
+    return packet_width(f, device_kind, rays=True)
 
 
 def pixels_per_item(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES) -> int:
@@ -182,12 +181,13 @@ def pixels_per_item(f: Features, device_kind: str | None, samples: int = PACKET_
 
 
 def compile_options(f: Features, device_kind: str | None = None,
-                    samples: int = PACKET_MIN_SAMPLES) -> dict[str, int]:
+                    samples: int = PACKET_MIN_SAMPLES, rays: bool = False) -> dict[str, int]:
     """``-D`` definitions for the kernels: the only place feature names become macros.
-    ``device_kind`` (a Runtime's ``kind``) and ``samples`` (per pixel and fused launch)
-    choose the packet width (:func:`packet_width`); no device kind: no packets."""
+    ``device_kind`` (a Runtime's ``kind``), ``samples`` (per pixel and fused launch) and
+    ``rays`` (a program for batches of rays: :class:`texray.renderer.trace.Tracer`) choose the
+    packet width (:func:`packet_width`); no device kind: no packets."""
     return {
-        "TX_PACKET": packet_width(f, device_kind, samples),
+        "TX_PACKET": packet_width(f, device_kind, samples, rays),
         "TX_MULTI_PIXEL": int(pixels_per_item(f, device_kind, samples) > 1),
         "TX_TEXTURES": int(f.textures),
         "TX_VERTEX_NORMALS": int(f.vertex_normals),

@@ -14,7 +14,7 @@ import pyopencl as cl
 from ..compile import CompiledScene, compile_scene
 from ..device import layout, runtime
 from ..device.buffers import Uploaded
-from ..device.features import compile_options, trace_packet_width
+from ..device.features import compile_options
 
 
 @dataclass
@@ -36,9 +36,7 @@ class Tracer:
         # as a render with shadow rays would build it (a scene without lights has none), with
         # packets of `packet` rays per work-item where the device has them: the width for
         # batches of rays, a lane each (texray.device.features.trace_packet_width)
-        features = dataclasses.replace(cs.features, shadows=True)
-        options = compile_options(features, self.rt.kind)
-        options["TX_PACKET"] = trace_packet_width(features, self.rt.kind)
+        options = compile_options(dataclasses.replace(cs.features, shadows=True), self.rt.kind, rays=True)
         self.program = self.rt.program(options)
         self.up = Uploaded(self.rt.context, cs)
         self.packet = options["TX_PACKET"]
