@@ -184,6 +184,14 @@ TX_HALVES16(int, __private)
 TX_HALVES16(uint, __private)
 TX_HALVES16(float, __global)
 #undef TX_HALVES16
+/* convert_float8 of uint8 and int8 (the CMJ sampler's packets, core/sampler_packet.h, and the
+ * fused kernel's pixel coordinates) as clang's vector conversion, not PoCL's call
+ * (_cl_convert_float8: 18 calls in the two packet samplers). Both are LLVM's uitofp / sitofp
+ * of each lane, which IEEE-754 rounds to nearest: the same floats. */
+__attribute__((overloadable)) inline float8 tx_convert_float8(uint8 v) { return __builtin_convertvector(v, float8); }
+__attribute__((overloadable)) inline float8 tx_convert_float8(int8 v) { return __builtin_convertvector(v, float8); }
+#undef convert_float8
+#define convert_float8 tx_convert_float8
 /* Round to nearest even in either form: the same floats. */
 __attribute__((overloadable)) inline float16 tx_convert_float16(uint16 v)
 {
@@ -199,6 +207,59 @@ __attribute__((overloadable)) inline float16 tx_convert_float16(uint16 v)
 #define vstore8 tx_vstore8
 #undef vload8
 #define vload8 tx_vload8
+/* vload4 and vstore4 of floats the same way (a texture's uv transform, texture/texture.h;
+ * triangle_intersect4's exact edges, geometry/triangle.h; an instance's rows): PoCL's were
+ * calls (_cl_vload4, _cl_vstore4) on every texture lookup. The same bytes. */
+typedef float tx_float4u __attribute__((ext_vector_type(4), aligned(4)));
+#define TX_INLINE4(AS)                                                                            \
+    __attribute__((overloadable)) inline void tx_vstore4(float4 v, size_t o, AS float* p) \
+    {                                                                                             \
+        *(AS tx_float4u*)(p + 4 * o) = v;                                                         \
+    }                                                                                             \
+    __attribute__((overloadable)) inline float4 tx_vload4(size_t o, const AS float* p)    \
+    {                                                                                             \
+        return *(const AS tx_float4u*)(p + 4 * o);                                                \
+    }
+TX_INLINE4(__private)
+TX_INLINE4(__global)
+#undef TX_INLINE4
+__attribute__((overloadable)) inline float4 tx_vload4(size_t o, const __constant float* p)
+{
+    return *(const __constant tx_float4u*)(p + 4 * o);
+}
+#undef vstore4
+#define vstore4 tx_vstore4
+#undef vload4
+#define vload4 tx_vload4
+/* vstore2 of floats to global memory (uv records) likewise. */
+typedef float tx_float2u __attribute__((ext_vector_type(2), aligned(4)));
+__attribute__((overloadable)) inline void tx_vstore2(float2 v, size_t o, __global float* p)
+{
+    *(__global tx_float2u*)(p + 2 * o) = v;
+}
+#undef vstore2
+#define vstore2 tx_vstore2
+/* clamp of floats and uints (ray differentials, texture/differentials.h; a cylinder's uv),
+ * inline instead of a call (_cl_clamp: four per textured hit). fmin(fmax(x, lo), hi) as
+ * OpenCL defines it, with PoCL's choices where IEEE-754 leaves one: a NaN operand gives the
+ * other one, and of two equal operands (+0 and -0) each step returns its second, as x86's
+ * maxss and minss do (test_builtins.py: PoCL's bits on every pair of special values). */
+__attribute__((overloadable)) inline float tx_clamp(float x, float lo, float hi)
+{
+    float t = x > lo || lo != lo ? x : lo;
+    return t < hi || hi != hi ? t : hi;
+}
+__attribute__((overloadable)) inline float2 tx_clamp(float2 x, float lo, float hi)
+{
+    return (float2)(tx_clamp(x.x, lo, hi), tx_clamp(x.y, lo, hi));
+}
+__attribute__((overloadable)) inline uint tx_clamp(uint x, uint lo, uint hi)
+{
+    uint t = x > lo ? x : lo;
+    return t < hi ? t : hi;
+}
+#undef clamp
+#define clamp tx_clamp
 /* isnan, isinf, isfinite of a float (1 or 0, as the scalar builtins): its exponent bits. */
 inline int tx_isnan(float x) { return (as_uint(x) & 0x7fffffffu) > 0x7f800000u; }
 inline int tx_isinf(float x) { return (as_uint(x) & 0x7fffffffu) == 0x7f800000u; }

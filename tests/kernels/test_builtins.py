@@ -1,7 +1,7 @@
 """The kernels' own arithmetic helpers on the device, against the builtins and float64:
 
 * core/builtins.h (PoCL only, TX_POCL): tx_fabs, tx_floor, tx_fma, tx_nextafter,
-  tx_copysign, tx_sqrt, tx_rsqrt and vload3 return the very bits of PoCL's builtins, on
+  tx_copysign, tx_sqrt, tx_rsqrt, clamp, convert_float8, vload3, vload4 and vstore4 return the very bits of PoCL's builtins, on
   every special value (zeros, denormals, the float range's ends, infinities, NaNs) and a
   million random bit patterns: the images keep their bits; vload_half4 on all 65536 halves;
 * core/builtins.h's exp2 and log2 (PoCL only): within 1.5 ulp of float64 (measured: exp2
@@ -96,6 +96,40 @@ __kernel void halves(__global const half* h, __global float* out, uint n)
     vstore4(_cl_vload_half4(i, h), 0, out + 8 * i + 4);
 }
 
+/* clamp(x, lo, hi) of floats against PoCL's: out[2i], out[2i + 1]; and of uints. */
+__kernel void clamps(__global const float* x, __global const float* y, __global float* out, uint n)
+{
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    float a = x[i], lo = y[i], hi = y[(i + 1) % n];
+    out[4 * i] = clamp(a, lo, hi);
+    out[4 * i + 1] = _cl_clamp(a, lo, hi);
+    uint ua = as_uint(a), ulo = as_uint(lo) >> (i % 32u), uhi = as_uint(hi);
+    out[4 * i + 2] = as_float(clamp(ua, ulo, uhi));
+    out[4 * i + 3] = as_float(_cl_clamp(ua, ulo, uhi));
+}
+
+/* convert_float8 of the bits of x[8i..8i+7] as uint8 and int8, vload4 and vstore4 of
+ * floats (private and global), each against PoCL's: 48 floats per work-item. */
+__kernel void convert_load(__global const float* x, __global const float* y, __global float* out, uint n)
+{
+    uint i = get_global_id(0);
+    if (8 * i + 8 > n) return;
+    uint8 u = vload8(i, (__global const uint*)x);
+    __global float* o = out + 48 * i;
+    vstore8(convert_float8(u), 0, o);
+    vstore8(_cl_convert_float8(u), 0, o + 8);
+    vstore8(convert_float8(as_int8(u)), 0, o + 16);
+    vstore8(_cl_convert_float8(as_int8(u)), 0, o + 24);
+    float p[8];
+    for (int k = 0; k < 8; ++k) p[k] = x[8 * i + k];
+    float4 a = vload4(1, p), b = _cl_vload4(1, p);
+    vstore4(a, 8, o);                          /* o[32..35] */
+    _cl_vstore4(b, 9, o);                      /* o[36..39] */
+    vstore4(vload4(2 * i, x), 10, o);          /* o[40..43]: x[8i..8i+3] */
+    _cl_vstore4(_cl_vload4(2 * i, x), 11, o);  /* o[44..47] */
+}
+
 /* exp2 and log2 (core/builtins.h's, on PoCL) of x: out[2i], out[2i + 1]. */
 __kernel void explog(__global const float* x, __global const float* y, __global float* out, uint n)
 {
@@ -144,6 +178,45 @@ def test_pocl_inline_builtins_keep_the_bits(rt, rng):
         bad = (mine != theirs) & ~both_nan
         assert not bad.any(), (f"{name}: {bad.sum()} inputs differ, e.g. x={x[bad][:3]} y={y[bad][:3]}: "
                                f"{out[bad, 2 * j][:3]} vs builtin {out[bad, 2 * j + 1][:3]}")
+
+
+def test_pocl_clamp_keeps_the_bits(rt, rng):
+    """clamp of floats (core/builtins.h's, on PoCL) gives PoCL's builtin's bits for every pair of
+    special values as (x, lo) with hi the next pair's y, and a million random bit patterns
+    (NaNs, signed zeros, lo > hi included); clamp of uints PoCL's value."""
+    if "-DTX_POCL=1" not in rt.device_defines:
+        pytest.skip("core/builtins.h replaces builtins on PoCL only")
+    x, y = _pairs(rng, 1 << 20)
+    out = _run(rt, "clamps", x, y, 4, _POCL_KERNELS)
+    for j, name in ((0, "clamp(float)"), (2, "clamp(uint)")):
+        mine, theirs = out[:, j].view(np.uint32), out[:, j + 1].view(np.uint32)
+        bad = (mine != theirs) & ~(np.isnan(out[:, j]) & np.isnan(out[:, j + 1]))
+        assert not bad.any(), f"{name}: {bad.sum()} inputs differ, e.g. x={x[bad][:3]} lo={y[bad][:3]}"
+    lo, hi = y, np.roll(y, -1)
+    ok = (lo <= hi) & ~np.isnan(x)                 # where OpenCL defines it: fmin(fmax(x, lo), hi)
+    np.testing.assert_array_equal(out[ok, 0], np.minimum(np.maximum(x[ok], lo[ok]), hi[ok]))
+
+
+def test_pocl_convert_and_vload4_keep_the_bits(rt, rng):
+    """convert_float8 of uint8 and int8 (every bit pattern class: zero, the ends, above 2^24
+    where rounding happens) and vload4 / vstore4 of floats (core/builtins.h's, on PoCL): PoCL's
+    builtins' bits, and numpy's round-to-nearest conversion."""
+    if "-DTX_POCL=1" not in rt.device_defines:
+        pytest.skip("core/builtins.h replaces builtins on PoCL only")
+    special = np.array([0, 1, 2**24 - 1, 2**24, 2**24 + 1, 2**24 + 3, 2**31 - 1, 2**31, 2**31 + 1, 2**32 - 1,
+                        2**32 - 129, 2**32 - 128, 2**32 - 127, 0x7fffff80, 0x7fffffc0, 0xffffff7f], np.uint64)
+    u = np.concatenate([special, rng.integers(0, 2**32, 1 << 18, dtype=np.uint64)]).astype(np.uint32)
+    u = u[: len(u) // 8 * 8]
+    x = u.view(np.float32)
+    out = _run(rt, "convert_load", x, x, 48, _POCL_KERNELS)[: len(x) // 8].reshape(-1, 48)
+    n = len(out)
+    np.testing.assert_array_equal(out[:, 0:8].view(np.uint32), out[:, 8:16].view(np.uint32))
+    np.testing.assert_array_equal(out[:, 16:24].view(np.uint32), out[:, 24:32].view(np.uint32))
+    np.testing.assert_array_equal(out[:, 0:8].ravel(), u[: 8 * n].astype(np.float32))
+    np.testing.assert_array_equal(out[:, 16:24].ravel(), u[: 8 * n].view(np.int32).astype(np.float32))
+    xb = x[: 8 * n].reshape(n, 8).view(np.uint32)
+    for lo, want in ((32, xb[:, 4:8]), (36, xb[:, 4:8]), (40, xb[:, 0:4]), (44, xb[:, 0:4])):
+        np.testing.assert_array_equal(out[:, lo:lo + 4].view(np.uint32), want)
 
 
 def test_pocl_vload_half4_widens_every_half_exactly(rt):
