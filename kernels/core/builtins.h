@@ -36,15 +36,16 @@ inline float tx_floor(float x) { return __builtin_floorf(x); }
 #define floor tx_floor
 #if defined(__FMA__)
 __attribute__((overloadable)) inline float tx_fma(float a, float b, float c) { return __builtin_fmaf(a, b, c); }
-/* The packets' vectors (accel/packet.h) lane by lane; LLVM joins the lanes into one vfmadd. */
+/* The packets' vectors (accel/packet.h) as one vfmadd (each lane rounded once, as the
+ * scalar fma: the same floats). Written lane by lane, LLVM had left them scalar, joined by
+ * inserts (the packets' sphere test: 80 scalar FMAs, 2026-12-06). */
 __attribute__((overloadable)) inline float4 tx_fma(float4 a, float4 b, float4 c)
 {
-    return (float4)(__builtin_fmaf(a.x, b.x, c.x), __builtin_fmaf(a.y, b.y, c.y), __builtin_fmaf(a.z, b.z, c.z),
-                    __builtin_fmaf(a.w, b.w, c.w));
+    return __builtin_ia32_vfmaddps(a, b, c);
 }
 __attribute__((overloadable)) inline float8 tx_fma(float8 a, float8 b, float8 c)
 {
-    return (float8)(tx_fma(a.lo, b.lo, c.lo), tx_fma(a.hi, b.hi, c.hi));
+    return __builtin_ia32_vfmaddps256(a, b, c);
 }
 __attribute__((overloadable)) inline float16 tx_fma(float16 a, float16 b, float16 c)
 {
@@ -84,13 +85,28 @@ __attribute__((overloadable)) inline float16 tx_copysign(float16 x, float16 y)
 #undef copysign
 #define copysign tx_copysign
 
-/* sqrt (correctly rounded: sqrtss) and rsqrt as PoCL computes it, 1 / sqrt(x). */
+/* sqrt (correctly rounded: sqrtss) and rsqrt as PoCL computes it, 1 / sqrt(x). The vector
+ * versions as the CPU's vector square root where the target has it (sqrtps, vsqrtps: each
+ * lane correctly rounded, so the same floats): LLVM left four or eight lanes of sqrtss
+ * apart, joined by inserts (the packets' sphere geometry: 69 scalar square roots, none
+ * packed, 2026-12-06). */
 __attribute__((overloadable)) inline float tx_sqrt(float x) { return __builtin_sqrtf(x); }
 __attribute__((overloadable)) inline float4 tx_sqrt(float4 x)
 {
+#if defined(__SSE__)
+    return __builtin_ia32_sqrtps(x);
+#else
     return (float4)(__builtin_sqrtf(x.x), __builtin_sqrtf(x.y), __builtin_sqrtf(x.z), __builtin_sqrtf(x.w));
+#endif
 }
-__attribute__((overloadable)) inline float8 tx_sqrt(float8 x) { return (float8)(tx_sqrt(x.lo), tx_sqrt(x.hi)); }
+__attribute__((overloadable)) inline float8 tx_sqrt(float8 x)
+{
+#if defined(__AVX__)
+    return __builtin_ia32_sqrtps256(x);
+#else
+    return (float8)(tx_sqrt(x.lo), tx_sqrt(x.hi));
+#endif
+}
 __attribute__((overloadable)) inline float16 tx_sqrt(float16 x) { return (float16)(tx_sqrt(x.lo), tx_sqrt(x.hi)); }
 #undef sqrt
 #define sqrt tx_sqrt
