@@ -275,3 +275,32 @@ def test_one_light_per_sample_is_mitsubas_estimator_and_the_bench_times_it(tmp_p
     f = compare_peers.frames(path, None, repeat=1, tte=False)
     one = f["texray_one_light"]
     assert one["render_s"]["median"] > 0 and one["diff"]["rmse"] < 0.2
+
+
+def test_time_to_error_times_each_setting_by_its_median(monkeypatch):
+    """time_to_error's settings are timed as the median of `repeat` renders after a warm-up (one
+    render of a 20 ms frame caught a 45% hiccup and picked a slower setting), and the fastest
+    setting whose RMSE reaches Mitsuba's wins. Renders faked: noise falls as 1 / spp, times
+    are spp ms with one slow outlier per setting."""
+    from texray.bench import compare_peers as cp
+    ref = np.full((2, 2, 3), 0.5)
+    calls = []
+
+    def fake_render(scene, w, h, spp=1, device=None, seed=0, adaptive=None, light_sampling=None):
+        calls.append((spp, seed, adaptive))
+        k = sum(1 for c in calls if c == (spp, seed, adaptive))
+        t = spp * 1e-3 * (3.0 if k == 1 else 1.0)           # the first timed run of each setting: slow
+        return SimpleNamespace(rgb=ref + (0.0 if spp >= 256 else 0.1 / spp),
+                               stats={"render_s": t, "samples": spp * w * h})
+
+    monkeypatch.setattr(cp.tx, "render", fake_render)
+    monkeypatch.setattr(cp.peers, "mitsuba_render", lambda *a, **k: (ref, {}))     # its converged image
+    scene = SimpleNamespace(lights=[None])
+    out = cp.time_to_error(scene, 2, 2, 4, "cpu", ref + 0.1 / 3.5, 0.004, repeat=3)
+    fixed = [t for t in out["tried"] if "adaptive" not in t]
+    for t in fixed:                                          # median of (3x, 1x, 1x) = 1x
+        assert t["render_s"] == pytest.approx(t["spp"] * 1e-3)
+    assert out["target_rmse"] == pytest.approx(0.1 / 3.5)
+    assert out["texray"]["spp"] == 4                         # rmse 0.025 <= 0.0286; 3 spp's 0.033 is not
+    timed = [c for c in calls if c[1] == 1]
+    assert len(timed) == 3 * len(out["tried"])
