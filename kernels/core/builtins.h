@@ -135,14 +135,26 @@ TX_VLOAD2(ushort, __global)
 #undef vload2
 #define vload2 tx_vload2
 /* any(intN): some lane's sign bit set (int8, int16: accel/packet.h's lane masks). */
+/* Where the target has AVX, the lanes' sign bits as one movmskps (a lane mask's test in every
+ * packet traversal step; or-ing the lanes down to one took shuffles and extracts). */
+#if defined(__AVX__)
+__attribute__((overloadable)) inline int tx_any(int4 v) { return __builtin_ia32_movmskps(as_float4(v)) != 0; }
+__attribute__((overloadable)) inline int tx_any(int8 v) { return __builtin_ia32_movmskps256(as_float8(v)) != 0; }
+#else
 __attribute__((overloadable)) inline int tx_any(int4 v) { return (v.x | v.y | v.z | v.w) < 0; }
 __attribute__((overloadable)) inline int tx_any(int8 v) { return tx_any(v.lo | v.hi); }
+#endif
 __attribute__((overloadable)) inline int tx_any(int16 v) { return tx_any(v.lo | v.hi); }
 #undef any
 #define any tx_any
 /* all(intN): every lane's sign bit set (core/sampler.h's lane masks). */
+#if defined(__AVX__)
+__attribute__((overloadable)) inline int tx_all(int4 v) { return __builtin_ia32_movmskps(as_float4(v)) == 0xf; }
+__attribute__((overloadable)) inline int tx_all(int8 v) { return __builtin_ia32_movmskps256(as_float8(v)) == 0xff; }
+#else
 __attribute__((overloadable)) inline int tx_all(int4 v) { return (v.x & v.y & v.z & v.w) < 0; }
 __attribute__((overloadable)) inline int tx_all(int8 v) { return tx_all(v.lo & v.hi); }
+#endif
 __attribute__((overloadable)) inline int tx_all(int16 v) { return tx_all(v.lo & v.hi); }
 #undef all
 #define all tx_all

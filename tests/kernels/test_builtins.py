@@ -1,7 +1,7 @@
 """The kernels' own arithmetic helpers on the device, against the builtins and float64:
 
 * core/builtins.h (PoCL only, TX_POCL): tx_fabs, tx_floor, tx_fma, tx_nextafter,
-  tx_copysign, tx_sqrt, tx_rsqrt, clamp, convert_float8, vload3, vload4 and vstore4 return the very bits of PoCL's builtins, on
+  tx_copysign, tx_sqrt, tx_rsqrt, clamp, convert_float8, any, all, vload3, vload4 and vstore4 return the very bits of PoCL's builtins, on
   every special value (zeros, denormals, the float range's ends, infinities, NaNs) and a
   million random bit patterns: the images keep their bits; vload_half4 on all 65536 halves;
 * core/builtins.h's exp2 and log2 (PoCL only): within 1.5 ulp of float64 (measured: exp2
@@ -130,6 +130,23 @@ __kernel void convert_load(__global const float* x, __global const float* y, __g
     _cl_vstore4(_cl_vload4(2 * i, x), 11, o);  /* o[44..47] */
 }
 
+/* any and all of int4, int8 and int16 lane masks against PoCL's: 12 answers per work-item,
+ * its 16 ints x[16i..] (as their bits) and y's sign bits mixed in. */
+__kernel void masks(__global const float* x, __global const float* y, __global float* out, uint n)
+{
+    uint i = get_global_id(0);
+    if (16 * i + 16 > n) return;
+    int16 v = as_int16(vload16(i, x));
+    int16 w = as_int16(vload16(i, y)) >> 31;     /* whole-lane masks: -1 or 0 */
+    int16 u = (i & 1u) ? w : v;
+    __global float* o = out + 12 * i;
+    o[0] = any(u.lo.lo); o[1] = _cl_any(u.lo.lo); o[2] = all(u.lo.lo); o[3] = _cl_all(u.lo.lo);
+    o[4] = any(u.lo); o[5] = _cl_any(u.lo); o[6] = all(u.lo); o[7] = _cl_all(u.lo);
+    /* no 16-lane value may reach PoCL's library (core/builtins.h): PoCL's answer for 16 lanes
+     * is that of its two halves */
+    o[8] = any(u); o[9] = _cl_any(u.lo) || _cl_any(u.hi); o[10] = all(u); o[11] = _cl_all(u.lo) && _cl_all(u.hi);
+}
+
 /* exp2 and log2 (core/builtins.h's, on PoCL) of x: out[2i], out[2i + 1]. */
 __kernel void explog(__global const float* x, __global const float* y, __global float* out, uint n)
 {
@@ -217,6 +234,36 @@ def test_pocl_convert_and_vload4_keep_the_bits(rt, rng):
     xb = x[: 8 * n].reshape(n, 8).view(np.uint32)
     for lo, want in ((32, xb[:, 4:8]), (36, xb[:, 4:8]), (40, xb[:, 0:4]), (44, xb[:, 0:4])):
         np.testing.assert_array_equal(out[:, lo:lo + 4].view(np.uint32), want)
+
+
+def test_pocl_any_and_all_answer_as_the_builtins(rt, rng):
+    """any and all of 4, 8 and 16 lanes (core/builtins.h's: movmskps where the target has AVX)
+    give PoCL's answers on random ints and on lane masks, every answer seen both ways."""
+    if "-DTX_POCL=1" not in rt.device_defines:
+        pytest.skip("core/builtins.h replaces builtins on PoCL only")
+    n = 1 << 16
+    bits = rng.integers(0, 2**32, (2, 16 * n), dtype=np.uint64).astype(np.uint32)
+    bits[1, : 16 * 64] = 0x80000000                    # some groups of masks all set
+    bits[1, 16 * 64: 16 * 128] = 0                     # and all clear
+    x, y = bits[0].view(np.float32), bits[1].view(np.float32)
+    k = build_test_program(rt, (), _POCL_KERNELS)
+    mf = cl.mem_flags
+    bx = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
+    by = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=y)
+    out = np.zeros(12 * n, np.float32)
+    bo = cl.Buffer(rt.context, mf.WRITE_ONLY, out.nbytes)
+    k.masks(rt.queue, (n,), None, bx, by, bo, np.uint32(16 * n))
+    cl.enqueue_copy(rt.queue, out, bo)
+    out = out.reshape(n, 6, 2)
+    np.testing.assert_array_equal(out[:, :, 0], out[:, :, 1])
+    for j in range(6):
+        assert 0 < out[:, j, 0].sum() < n, f"answer {j} always the same"
+    u = np.where((np.arange(n) % 2 == 1)[:, None], (bits[1].view(np.int32) >> 31).reshape(n, 16),
+                 bits[0].view(np.int32).reshape(n, 16))
+    for j, lanes in enumerate((4, 8, 16)):
+        neg = u[:, :lanes] < 0
+        np.testing.assert_array_equal(out[:, 2 * j, 0], neg.any(axis=1))
+        np.testing.assert_array_equal(out[:, 2 * j + 1, 0], neg.all(axis=1))
 
 
 def test_pocl_vload_half4_widens_every_half_exactly(rt):
