@@ -134,9 +134,10 @@ TX_VLOAD2(ushort, __global)
 #undef TX_VLOAD2
 #undef vload2
 #define vload2 tx_vload2
-/* any(intN): some lane's sign bit set (int8, int16: accel/packet.h's lane masks). */
-/* Where the target has AVX, the lanes' sign bits as one movmskps (a lane mask's test in every
- * packet traversal step; or-ing the lanes down to one took shuffles and extracts). */
+/* any(intN): some lane's sign bit set (int8, int16: accel/packet.h's lane masks). Where the
+ * target has AVX, and for all() below, the lanes' sign bits as one movmskps (a lane mask's
+ * test in every packet traversal step; or-ing the lanes down to one took shuffles and
+ * extracts). */
 #if defined(__AVX__)
 __attribute__((overloadable)) inline int tx_any(int4 v) { return __builtin_ia32_movmskps(as_float4(v)) != 0; }
 __attribute__((overloadable)) inline int tx_any(int8 v) { return __builtin_ia32_movmskps256(as_float8(v)) != 0; }
@@ -240,11 +241,11 @@ __attribute__((overloadable)) inline float16 tx_convert_float16(uint16 v)
  * calls (_cl_vload4, _cl_vstore4) on every texture lookup. The same bytes. */
 typedef float tx_float4u __attribute__((ext_vector_type(4), aligned(4)));
 #define TX_INLINE4(AS)                                                                            \
-    __attribute__((overloadable)) inline void tx_vstore4(float4 v, size_t o, AS float* p) \
+    __attribute__((overloadable)) inline void tx_vstore4(float4 v, size_t o, AS float* p)         \
     {                                                                                             \
         *(AS tx_float4u*)(p + 4 * o) = v;                                                         \
     }                                                                                             \
-    __attribute__((overloadable)) inline float4 tx_vload4(size_t o, const AS float* p)    \
+    __attribute__((overloadable)) inline float4 tx_vload4(size_t o, const AS float* p)            \
     {                                                                                             \
         return *(const AS tx_float4u*)(p + 4 * o);                                                \
     }
