@@ -177,28 +177,42 @@ __attribute__((overloadable)) inline int tx_all(int16 v) { return tx_all(v.lo & 
  * With these, and the inline versions above, no 16-lane value reaches the library
  * (tests/kernels/test_packet.py builds the 16-lane program twice, the second from the
  * cache; 2026-12-04, pocl-binary-distribution 3.0). */
-/* vload8 and vstore8 (the 8-lane packets' PLOAD and PSTORE: accel/packet.h) as one
- * unaligned vector access through a type aligned like its element (vmovups), not PoCL's
- * call (_cl_vstore8: 0.7% of the grazing quad's frame, 2026-12-05). The same bytes. */
+/* vload8 and vstore8 (the 8-lane packets' PLOAD and PSTORE: accel/packet.h), vload4 and
+ * vstore4 of floats (a texture's uv transform, texture/texture.h; triangle_intersect4's exact
+ * edges, geometry/triangle.h; an instance's rows) and vstore2 of floats to global memory (uv
+ * records): each one unaligned vector access through a type aligned like its element
+ * (vmovups), not PoCL's call (_cl_vstore8: 0.7% of the grazing quad's frame, 2026-12-05;
+ * _cl_vload4 on every texture lookup). The same bytes. TX_VLOAD_U and TX_VSTORE_U define
+ * them for N lanes of T in address space AS. */
 typedef float tx_float8u __attribute__((ext_vector_type(8), aligned(4)));
 typedef int tx_int8u __attribute__((ext_vector_type(8), aligned(4)));
 typedef uint tx_uint8u __attribute__((ext_vector_type(8), aligned(4)));
-#define TX_INLINE8(T, AS)                                                                         \
-    __attribute__((overloadable)) inline void tx_vstore8(T##8 v, size_t o, AS T* p)               \
+typedef float tx_float4u __attribute__((ext_vector_type(4), aligned(4)));
+typedef float tx_float2u __attribute__((ext_vector_type(2), aligned(4)));
+#define TX_VSTORE_U(N, T, AS)                                                                     \
+    __attribute__((overloadable)) inline void tx_vstore##N(T##N v, size_t o, AS T* p)             \
     {                                                                                             \
-        *(AS tx_##T##8u*)(p + 8 * o) = v;                                                         \
-    }                                                                                             \
-    __attribute__((overloadable)) inline T##8 tx_vload8(size_t o, const AS T* p)                  \
-    {                                                                                             \
-        return *(const AS tx_##T##8u*)(p + 8 * o);                                                \
+        *(AS tx_##T##N##u*)(p + N * o) = v;                                                       \
     }
-TX_INLINE8(float, __private)
-TX_INLINE8(int, __private)
-TX_INLINE8(uint, __private)
-TX_INLINE8(float, __global)
-TX_INLINE8(int, __global)
-TX_INLINE8(uint, __global)
-#undef TX_INLINE8
+#define TX_VLOAD_U(N, T, AS)                                                                      \
+    __attribute__((overloadable)) inline T##N tx_vload##N(size_t o, const AS T* p)                \
+    {                                                                                             \
+        return *(const AS tx_##T##N##u*)(p + N * o);                                              \
+    }
+#define TX_VLOADSTORE_U(N, T, AS) TX_VSTORE_U(N, T, AS) TX_VLOAD_U(N, T, AS)
+TX_VLOADSTORE_U(8, float, __private)
+TX_VLOADSTORE_U(8, int, __private)
+TX_VLOADSTORE_U(8, uint, __private)
+TX_VLOADSTORE_U(8, float, __global)
+TX_VLOADSTORE_U(8, int, __global)
+TX_VLOADSTORE_U(8, uint, __global)
+TX_VLOADSTORE_U(4, float, __private)
+TX_VLOADSTORE_U(4, float, __global)
+TX_VLOAD_U(4, float, __constant)
+TX_VSTORE_U(2, float, __global)
+#undef TX_VLOADSTORE_U
+#undef TX_VLOAD_U
+#undef TX_VSTORE_U
 #define TX_HALVES16(T, AS)                                                                        \
     __attribute__((overloadable)) inline void tx_vstore16(T##16 v, size_t o, AS T* p)             \
     {                                                                                             \
@@ -236,36 +250,10 @@ __attribute__((overloadable)) inline float16 tx_convert_float16(uint16 v)
 #define vstore8 tx_vstore8
 #undef vload8
 #define vload8 tx_vload8
-/* vload4 and vstore4 of floats the same way (a texture's uv transform, texture/texture.h;
- * triangle_intersect4's exact edges, geometry/triangle.h; an instance's rows): PoCL's were
- * calls (_cl_vload4, _cl_vstore4) on every texture lookup. The same bytes. */
-typedef float tx_float4u __attribute__((ext_vector_type(4), aligned(4)));
-#define TX_INLINE4(AS)                                                                            \
-    __attribute__((overloadable)) inline void tx_vstore4(float4 v, size_t o, AS float* p)         \
-    {                                                                                             \
-        *(AS tx_float4u*)(p + 4 * o) = v;                                                         \
-    }                                                                                             \
-    __attribute__((overloadable)) inline float4 tx_vload4(size_t o, const AS float* p)            \
-    {                                                                                             \
-        return *(const AS tx_float4u*)(p + 4 * o);                                                \
-    }
-TX_INLINE4(__private)
-TX_INLINE4(__global)
-#undef TX_INLINE4
-__attribute__((overloadable)) inline float4 tx_vload4(size_t o, const __constant float* p)
-{
-    return *(const __constant tx_float4u*)(p + 4 * o);
-}
 #undef vstore4
 #define vstore4 tx_vstore4
 #undef vload4
 #define vload4 tx_vload4
-/* vstore2 of floats to global memory (uv records) likewise. */
-typedef float tx_float2u __attribute__((ext_vector_type(2), aligned(4)));
-__attribute__((overloadable)) inline void tx_vstore2(float2 v, size_t o, __global float* p)
-{
-    *(__global tx_float2u*)(p + 2 * o) = v;
-}
 #undef vstore2
 #define vstore2 tx_vstore2
 /* clamp of floats and uints (ray differentials, texture/differentials.h; a cylinder's uv),
