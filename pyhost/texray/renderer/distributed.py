@@ -7,7 +7,8 @@ remembered per client by the scene's content hash, so the frames of a camera pat
 a second render of the same scene send nothing). Each task then renders its band with
 :func:`texray.renderer.frame.render_rows` on the worker's device; the worker keeps its
 OpenCL runtime and built programs (texray.device.runtime is per process) and the
-scene's device buffers (:data:`UPLOADS`) across tasks.
+scene's device buffers (texray.renderer.uploads, keyed by the client's
+:func:`~texray.renderer.uploads.compiled_key`) across tasks.
 
 A band is a pure function of (compiled scene, camera, rows, samples, seed): its pixels
 equal those rows of a local render bit for bit (texray.renderer.frame), so a task lost
@@ -25,9 +26,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
-import hashlib
 import os
-import threading
 import time
 import uuid
 import weakref
@@ -36,17 +35,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..device.buffers import Uploaded
 from ..errors import DeviceError, SceneError
 from .. import validate as V
 from .adaptive import BLOCK_ROWS
 from .frame import ROW_OPTIONS, device_program, launch_samples, render_rows
+from . import uploads
+from .uploads import CLIENT_ONLY as _CLIENT_ONLY, compiled_key
 
 TASKS_PER_WORKER = 4          # bands per worker, for balance
 MIN_BAND_SAMPLES = 1 << 18    # pixel samples per band at least: ~0.1 s on one PoCL core at 16 spp
 MIN_BAND_SECONDS = 0.1        # ... and, once a client's workers were timed, this long a band at their rate
 SHIPPED_PER_CLIENT = 4        # compiled scenes kept on a cluster per client (newest first)
-UPLOADS_PER_WORKER = 2        # scenes whose device buffers a worker keeps
 INSTALL = "pip install 'texray[dask]'"
 CONNECT_TIMEOUT = "10s"          # to reach a scheduler given by its address
 BAND_RETRIES = 3                 # times a band the cluster lost (a task cancelled not by texray) is resubmitted
@@ -54,8 +53,6 @@ BAND_RETRIES = 3                 # times a band the cluster lost (a task cancell
 _clients: dict = {}                                   # scheduler address -> Client made for it
 _shipped: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # Client -> OrderedDict(key -> Future)
 _rates: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()     # Client -> pixel samples per second per task
-UPLOADS: "OrderedDict" = OrderedDict()                # on a worker: (key, device, features) -> Uploaded
-_uploads_lock = threading.Lock()
 
 
 def _dask(where):
@@ -140,33 +137,6 @@ def band_rows(width, rows, spp, workers, rate=None) -> int:
     return min(rows, -(-blocks // bands) * BLOCK_ROWS)
 
 
-def compiled_key(cs) -> str:
-    """Content hash of what a worker renders from: every field of the compiled scene but
-    those only the client reads (the binary BVH, the camera, the compile's timings). A
-    scene compiled through the scene cache has the cache's key of what it was compiled
-    from: that with what a render changes (the features; the generic object table) is
-    the key, and its arrays are not hashed again (40 ms for the showcase's 20 MiB)."""
-    h = hashlib.blake2b(digest_size=20)
-    if cs.source_key is not None:
-        h.update(f"{cs.source_key}|{cs.features!r}|{cs.objects is cs.objects_generic}".encode())
-        return h.hexdigest()
-    for f in dataclasses.fields(cs):
-        if f.name in _CLIENT_ONLY:
-            continue
-        v = getattr(cs, f.name)
-        h.update(f.name.encode() + b"\0")
-        if isinstance(v, np.ndarray):
-            a = np.ascontiguousarray(v)
-            h.update(f"{a.dtype.descr}{a.shape}".encode())
-            h.update(memoryview(a.reshape(-1)).cast("B") if a.size else b"")
-        else:
-            h.update(repr(v).encode())
-    return h.hexdigest()
-
-
-_CLIENT_ONLY = ("bvh", "camera", "steps_s", "blas_reused", "objects_generic", "source_key")
-
-
 def _for_workers(cs):
     """The compiled scene without what only the client reads."""
     return dataclasses.replace(cs, **{name: None for name in _CLIENT_ONLY if name != "blas_reused"})
@@ -200,26 +170,13 @@ def render_band(cs, key, camera, width, height, spp, rows, options):
     rt, prg, local, _ = device_program(cs, options["device"], options["local_size"],
                                     launch_samples(width, height, spp, options["adaptive"]))
     build_s = time.perf_counter() - t0
-    out = render_rows(rt, prg, cs, camera, width, height, spp, rows, local=local, uploaded=_uploaded(rt, cs, key),
+    up, _ = uploads.uploaded(rt, cs, key)
+    out = render_rows(rt, prg, cs, camera, width, height, spp, rows, local=local, uploaded=up,
                       **{k: options[k] for k in ROW_OPTIONS})
     return {"rows": rows, "rgb": out.rgb, "aov": out.aov, "samples": out.samples,
             "render_s": time.perf_counter() - t0, "worker": f"{os.uname().nodename}:{os.getpid()}",
             "device": rt.device.name.strip(), "tile_rows": out.tile_rows, "ray_buffer_bytes": out.ray_buffer_bytes,
             "local_size": local, "program_build_s": build_s}
-
-
-def _uploaded(rt, cs, key):
-    """The scene's device buffers on this worker, uploaded once per (scene, device,
-    features) and kept for the next tasks (the UPLOADS_PER_WORKER newest)."""
-    k = (key, rt.device.int_ptr, cs.features)
-    with _uploads_lock:
-        up = UPLOADS.get(k)
-        if up is None:
-            up = UPLOADS[k] = Uploaded(rt.context, cs)
-            while len(UPLOADS) > UPLOADS_PER_WORKER:
-                UPLOADS.popitem(last=False)
-        UPLOADS.move_to_end(k)
-        return up
 
 
 @dataclass

@@ -206,10 +206,10 @@ class _Run:
         except cl.MemoryError as e:
             raise DeviceError(f"render: out of device memory for {n_max} rays per tile; pass a smaller "
                               f"tile_pixels ({e})") from None
-        self.k = {name: cl.Kernel(prg, name) for name in STAGES + ("render_fused",)}
         self.events = {name: [] for name in (("render_fused",) if fused else STAGES)}
         if fused and aovs:
             self.events.update({name: [] for name in ("raygen", "intersect", "surface")})
+        self.k = {name: rt.kernel(prg, name) for name in self.events}     # only the kernels this render runs
         u32 = np.uint32
         self.geom, self.light = self.up.geom, self.up.light
         self.surface_args = self.up.args("SURFACE", cam=self.cam, image_w=u32(width), image_h=u32(height),

@@ -26,7 +26,7 @@ from ..errors import SceneError
 from ..io.images import ScanlineWriter
 from ..scene import Camera, Scene
 from .. import validate as V
-from . import distributed
+from . import distributed, uploads
 from .adaptive import BLOCK_ROWS
 from .frame import PIPELINES, RAY_BYTES, ROW_OPTIONS, device_program, launch_samples, render_rows
 from .image import Image, check_host_memory, host_image_bytes
@@ -117,12 +117,15 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     samples = launch_samples(s.width, s.height, s.spp, s.options["adaptive"])
     rt, prg, local, packet = device_program(s.cs, device, local_size, samples)
     t_built = time.perf_counter()
+    up, kept = uploads.uploaded(rt, s.cs, uploads.local_key(s.cs))
+    t_uploaded = time.perf_counter()
     out = render_rows(rt, prg, s.cs, s.camera, s.width, s.height, s.spp, s.rows, local=local, progress=progress,
-                      sink=sink, **{k: s.options[k] for k in ROW_OPTIONS})
+                      sink=sink, uploaded=up, **{k: s.options[k] for k in ROW_OPTIONS})
     t_end = time.perf_counter()
     s.stats.update({
         "device": rt.device.name.strip(), "program_build_s": t_built - t_compiled,
-        "render_s": t_end - t_built, "upload_s": out.upload_s, "total_s": t_end - s.t_start,
+        "render_s": t_end - t_built, "upload_s": t_uploaded - t_built + out.upload_s, "upload_kept": kept,
+        "total_s": t_end - s.t_start,
         "stage_s": out.stage_s, "tile_rows": out.tile_rows, "tiles": out.tiles, "local_size": local,
         "ray_buffer_bytes": out.ray_buffer_bytes, "samples": out.samples, "packet": packet,
     })
