@@ -23,6 +23,15 @@
  * Floating-point contraction: OpenCL's default (on) for core/common.h and
  * core/sampler.h, off from core/accurate.h's pragma to the end; see there. The order
  * of the first three includes is therefore part of the images' bits. */
+/* AVX-512 on PoCL where the CPU has it and the host's rule takes it (texray.device.features
+ * avx512): PoCL's LLVM compiles for the CPU it knows, Zen 3 (AVX2) on a Zen 4; every function
+ * of the program, the kernels included, gets the target features, and min_vector_width lets
+ * the 16-lane packets' vectors be 512-bit registers where the CPU's tuning prefers 256. No
+ * arithmetic changes (no fast-math, the same contraction): the images are the same bits. */
+#if TX_AVX512
+#pragma clang attribute push (__attribute__((target("avx512f,avx512vl,avx512bw,avx512dq"))), apply_to = function)
+#pragma clang attribute push (__attribute__((min_vector_width(512))), apply_to = function)
+#endif
 #include "core/common.h"
 #include "core/sampler.h"
 #include "core/accurate.h"
@@ -42,3 +51,7 @@
 #include "stages/shadow.cl"
 #include "stages/shade.cl"
 #include "stages/fused.cl"
+#if TX_AVX512
+#pragma clang attribute pop
+#pragma clang attribute pop
+#endif

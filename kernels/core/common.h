@@ -30,6 +30,18 @@
 #endif
 #define TX_OUT_OF_LINE
 
+/* A kernel's body as a function of its own, which the __kernel calls with its scalar and
+ * pointer arguments: on PoCL out of line (stages/fused.cl says what that saves), elsewhere
+ * inline (Intel's compiler vectorizes the kernel across work-items). On PoCL with AVX-512
+ * (kernels/texray.cl) it is also what keeps 16-lane vectors away from the kernel itself: a
+ * kernel that passed one to an out-of-line helper (occluded_packet, bvh_any_packet's lane
+ * mask) got lanes 8-15 wrong, while the same call between two helpers is right. */
+#if TX_POCL
+#define TX_KERNEL_BODY static __attribute__((noinline))
+#else
+#define TX_KERNEL_BODY static inline
+#endif
+
 /* Unit roundoff of float32 (2^-24). gamma_n(n) = n u / (1 - n u) bounds the
  * relative error of n chained float operations (Higham; pbrt-v4 3.9). */
 #define TX_FLT_U 5.9604645e-08f

@@ -34,17 +34,11 @@
 #define TX_PIX_MAX 1
 #endif
 
-/* The kernel's body, a function of its own: on PoCL one call per work-item, out of line.
- * PoCL compiles a kernel three times over (the kernel and its two work-group launchers,
- * each with the kernel inlined); as a call the body is compiled once, which took 0.1 s
- * (12%) off the mixed bench scene's first launch (texray bench's cold build; the body runs
- * for a whole pixel's samples, so the call costs nothing measurable). Other drivers inline
- * it (Intel's vectorizes the kernel across work-items, core/common.h). */
-#if TX_POCL
-#define TX_KERNEL_BODY static __attribute__((noinline))
-#else
-#define TX_KERNEL_BODY static inline
-#endif
+/* The kernel's body, a function of its own (TX_KERNEL_BODY, core/common.h): on PoCL one
+ * call per work-item, out of line. PoCL compiles a kernel three times over (the kernel and
+ * its two work-group launchers, each with the kernel inlined); as a call the body is compiled
+ * once, which took 0.1 s (12%) off the mixed bench scene's first launch (texray bench's cold
+ * build; the body runs for a whole pixel's samples, so the call costs nothing measurable). */
 TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global const uint* active,
                                       __global float* sum_y2, uint n, uint y0, uint sample0, uint nsamples,
                                       uint pixels, uint seed, uint jitter, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,

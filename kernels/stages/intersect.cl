@@ -49,10 +49,9 @@ inline void packet_of_rays(__global const Ray* rays, uint base, uint n, PacketRa
 /* `occluded` and `intersect` with TX_PACKET consecutive rays per work-item traced as one
  * packet (accel/packet.h): the same answers, bit for bit; how the tests and the benchmark
  * see the packet traversals alone. */
-__kernel void occluded_packet(__global const Ray* rays, __global uchar* out, uint n, TX_GEOM_PARAMS)
+TX_KERNEL_BODY void occluded_packet_body(uint base, __global const Ray* rays, __global uchar* out, uint n,
+                                         TX_GEOM_PARAMS)
 {
-    uint base = get_global_id(0) * (uint)TX_PACKET;
-    if (base >= n) return;
     PacketRay r;
     int act[TX_PACKET], occ[TX_PACKET];
     packet_of_rays(rays, base, n, &r, act);
@@ -61,11 +60,17 @@ __kernel void occluded_packet(__global const Ray* rays, __global uchar* out, uin
         out[base + j] = act[j] && occ[j];
 }
 
-#if !TX_INSTANCES
-__kernel void intersect_packet(__global const Ray* rays, __global Hit* hits, uint n, TX_GEOM_PARAMS)
+__kernel void occluded_packet(__global const Ray* rays, __global uchar* out, uint n, TX_GEOM_PARAMS)
 {
     uint base = get_global_id(0) * (uint)TX_PACKET;
     if (base >= n) return;
+    occluded_packet_body(base, rays, out, n, TX_GEOM_ARGS);
+}
+
+#if !TX_INSTANCES
+TX_KERNEL_BODY void intersect_packet_body(uint base, __global const Ray* rays, __global Hit* hits, uint n,
+                                          TX_GEOM_PARAMS)
+{
     PacketRay r;
     int act[TX_PACKET], hp[TX_PACKET];
     float ht[TX_PACKET], hb1[TX_PACKET], hb2[TX_PACKET];
@@ -76,6 +81,13 @@ __kernel void intersect_packet(__global const Ray* rays, __global Hit* hits, uin
         __global Hit* o = hits + base + j;
         o->t = ht[j]; o->b1 = hb1[j]; o->b2 = hb2[j]; o->prim = (uint)hp[j];
     }
+}
+
+__kernel void intersect_packet(__global const Ray* rays, __global Hit* hits, uint n, TX_GEOM_PARAMS)
+{
+    uint base = get_global_id(0) * (uint)TX_PACKET;
+    if (base >= n) return;
+    intersect_packet_body(base, rays, hits, n, TX_GEOM_ARGS);
 }
 #endif
 #endif

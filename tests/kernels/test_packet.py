@@ -317,40 +317,40 @@ def test_packet_rule():
     """Packets where they measured faster: PoCL, shadows on; at any spp, several pixels per
     work-item where one pixel's samples leave lanes empty (pixels_per_item: the fewest packets
     per pixel, then the fewest pixels), adaptive sampling's rounds too (pixels from its
-    list); 16 lanes for scenes of triangles alone, 8 with any other kind, displacement or
-    instances. Intel's runtime: only when forced (TEXRAY_PACKET), for its slow packet builds."""
+    list); 16 lanes for every scene. Intel's runtime: only when forced (TEXRAY_PACKET), for its
+    slow packet builds."""
     from texray.device.features import pixels_per_item
     mix = Features(shadows=True, triangles=True, spheres=True)
     ada = Features(shadows=True, quads=True, triangles=False, adaptive=True)
-    assert [packet_width(mix, "pocl", n) for n in (1, 2, 3, 4, 16)] == [8] * 5
+    assert [packet_width(mix, "pocl", n) for n in (1, 2, 3, 4, 16)] == [16] * 5
     assert [pixels_per_item(mix, "pocl", n) for n in (1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 16, 20, 24)] == \
-        [8, 4, 8, 2, 8, 4, 8, 1, 8, 2, 1, 2, 1]
-    assert [packet_width(ada, "pocl", n) for n in (1, 3, 4, 8)] == [8, 8, 8, 8]
-    assert [pixels_per_item(ada, "pocl", n) for n in (1, 3, 4, 8)] == [8, 8, 2, 1]
+        [16, 8, 16, 4, 16, 8, 16, 2, 16, 4, 1, 4, 2]
+    assert [packet_width(ada, "pocl", n) for n in (1, 3, 4, 8)] == [16] * 4
+    assert [pixels_per_item(ada, "pocl", n) for n in (1, 3, 4, 8)] == [16, 16, 4, 2]
     tri = Features(shadows=True, triangles=True, vertex_normals=True, textures=True, adaptive=True)
     assert [packet_width(tri, "pocl", n) for n in (1, 4, 16)] == [16] * 3
     assert [pixels_per_item(tri, "pocl", n) for n in (1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 16, 20, 24, 32)] == \
         [16, 8, 16, 4, 16, 8, 16, 2, 16, 4, 1, 4, 2, 1]
     for other in ("spheres", "cylinders", "quads", "displacement", "displaced_meshes", "instances"):
-        assert packet_width(dataclasses.replace(tri, **{other: True}), "pocl", 16) == 8, other
+        assert packet_width(dataclasses.replace(tri, **{other: True}), "pocl", 16) == 16, other
     assert packet_width(tri, "nvidia", 16) == 0 and pixels_per_item(tri, "nvidia", 1) == 1
     assert packet_width(tri, "intel-cpu", 16) == 0 and pixels_per_item(tri, "intel-cpu", 1) == 1
     assert packet_width(tri, None, 16) == 0
     assert packet_width(Features(shadows=False, triangles=True), "pocl", 16) == 0
     assert pixels_per_item(Features(shadows=False, triangles=True), "pocl", 1) == 1
-    assert packet_width(Features.generic(), "pocl", 16) == 8
+    assert packet_width(Features.generic(), "pocl", 16) == 16
 
 
 def test_tracer_packet_rule(monkeypatch):
-    """The Tracer's batches of rays take the kind's width of PACKET_WIDTHS on every scene
-    (8 on PoCL: triangles alone too, where frames take 16), none on other kinds or without
+    """The Tracer's batches of rays take the kind's width of TRACE_PACKET_WIDTHS on every scene
+    (8 on PoCL, where frames take 16), none on other kinds or without
     shadows; TEXRAY_PACKET overrides it as it does the renderer's rule."""
     from texray.device.features import trace_packet_width
     monkeypatch.delenv("TEXRAY_PACKET", raising=False)
     tri = Features(shadows=True, triangles=True)
     mix = Features(shadows=True, triangles=True, spheres=True)
     assert trace_packet_width(tri, "pocl") == 8 and packet_width(tri, "pocl", 16) == 16
-    assert trace_packet_width(mix, "pocl") == 8
+    assert trace_packet_width(mix, "pocl") == 8 and packet_width(mix, "pocl", 16) == 16
     assert trace_packet_width(tri, "nvidia") == 0 and trace_packet_width(tri, "intel-cpu") == 0
     assert trace_packet_width(tri, None) == 0
     assert trace_packet_width(Features(shadows=False, triangles=True), "pocl") == 0
@@ -382,11 +382,10 @@ def test_renders_choose_packets_by_samples_per_launch(device, monkeypatch):
     assert launch_samples(64, 48, 16) == 16 and launch_samples(64, 48, 64, adaptive=0.1) == 8
     assert launch_samples(64, 48, 3) == 3
     scene = tx.load_scene(tx_scene("bench/textured_meshes.toml"))
-    width = {"pocl": 16}.get(runtime(device).kind, 0)           # triangles alone: 16 lanes
+    width = {"pocl": 16}.get(runtime(device).kind, 0)
     assert [tx.render(scene, 16, 12, spp, device=device).stats["packet"] for spp in (1, 4, 16)] == [width] * 3
     assert tx.render(scene, 16, 12, 3, device=device, adaptive=0.1).stats["packet"] == width
     assert tx.render(scene, 16, 12, 64, device=device, adaptive=0.1).stats["packet"] == width
-    width = {"pocl": 8}.get(runtime(device).kind, 0)
     assert tx.render(tx.load_scene(tx_scene("bench/globe.toml")), 16, 12, 16, device=device).stats["packet"] == width
     assert tx.render(scene, 16, 12, 16, device=device, shadows=False).stats["packet"] == 0
 
@@ -877,3 +876,71 @@ def test_packet_light_terms_equal_light_term(rt, rng, width, step):
     assert added.sum() > n // 10 and (live & ~added).sum() > n // 10
     d = np.linalg.norm(lpos - p, axis=1)
     assert (added & ((d > 1e20) | (d < 1e-20))).any()
+
+
+def test_avx512_rule(monkeypatch):
+    """TX_AVX512 on PoCL where the CPU has AVX-512: scenes of triangles alone and the Tracer;
+    TEXRAY_AVX512=0 off, =1 every PoCL program; never another kind or a CPU without it."""
+    from texray.device import features
+    tri = Features(shadows=True, triangles=True, textures=True, vertex_normals=True)
+    mix = Features(shadows=True, triangles=True, spheres=True)
+    monkeypatch.delenv("TEXRAY_AVX512", raising=False)
+    monkeypatch.setattr(features, "cpu_avx512", lambda: True)
+    assert features.avx512(tri, "pocl") and not features.avx512(mix, "pocl")
+    assert features.avx512(mix, "pocl", rays=True)
+    assert features.compile_options(tri, "pocl", 16)["TX_AVX512"] == 1
+    assert features.compile_options(mix, "pocl", 16)["TX_AVX512"] == 0
+    for kind in ("nvidia", "intel-cpu", None):
+        assert not features.avx512(tri, kind) and features.compile_options(tri, kind)["TX_AVX512"] == 0
+    monkeypatch.setenv("TEXRAY_AVX512", "1")
+    assert features.avx512(mix, "pocl") and not features.avx512(mix, "nvidia")
+    monkeypatch.setenv("TEXRAY_AVX512", "0")
+    assert not features.avx512(tri, "pocl") and not features.avx512(tri, "pocl", rays=True)
+    monkeypatch.setenv("TEXRAY_AVX512", "1")
+    monkeypatch.setattr(features, "cpu_avx512", lambda: False)
+    assert not features.avx512(tri, "pocl") and not features.avx512(mix, "pocl", rays=True)
+    monkeypatch.setenv("TEXRAY_AVX512", "yes")
+    with pytest.raises(DeviceError, match="TEXRAY_AVX512: expected 0 or 1, got 'yes'"):
+        features.avx512(tri, "pocl")
+
+
+def _need_avx512(device):
+    from texray.device import features, runtime
+    if runtime(device).kind != "pocl" or not features.cpu_avx512():
+        pytest.skip("AVX-512 programs are PoCL's on a CPU with AVX-512")
+
+
+@pytest.mark.parametrize("name", ["textured_meshes", "mixed"])
+def test_avx512_programs_render_the_same_image(device, monkeypatch, name):
+    """The program with AVX-512 (kernels/texray.cl TX_AVX512) renders the AVX2 program's image
+    bit for bit: triangles alone (its rule) and spheres, quads and triangles (forced), with
+    several pixels per work-item (3 spp) and adaptive sampling."""
+    _need_avx512(device)
+    scene = tx.load_scene(tx_scene(f"bench/{name}.toml"))
+    out = {}
+    for flag in ("0", "1"):
+        monkeypatch.setenv("TEXRAY_AVX512", flag)
+        out[flag] = [tx.render(scene, 40, 28, 3, device=device, seed=2).rgb,
+                     tx.render(scene, 40, 28, 16, device=device, adaptive=0.05).rgb]
+    for a, b in zip(out["0"], out["1"]):
+        assert a.std() > 0.02 and np.array_equal(a, b)
+
+
+def test_avx512_tracer_hits_equal_avx2(device, rng, monkeypatch):
+    """The Tracer's AVX-512 program finds the AVX2 program's hits and occlusions exactly."""
+    _need_avx512(device)
+    scene = _soup(rng, 300)
+    monkeypatch.delenv("TEXRAY_PACKET", raising=False)
+    org = rng.uniform(-2, 2, (4096, 3)).astype(np.float32)
+    d = (rng.uniform(-1, 1, (4096, 3)) - 0.3 * org).astype(np.float32)
+    got = {}
+    for flag in ("0", "1"):
+        monkeypatch.setenv("TEXRAY_AVX512", flag)
+        tr = Tracer(scene, device)
+        assert tr.packet == 8
+        got[flag] = (tr.closest(org, d, tmax=10.0), tr.occluded(org, d, tmax=1.0)[0])
+    (h0, o0), (h1, o1) = got["0"], got["1"]
+    for f in ("t", "b1", "b2", "prim"):
+        assert np.array_equal(getattr(h0, f), getattr(h1, f), equal_nan=True), f
+    assert (h0.prim >= 0).sum() > 100
+    assert np.array_equal(o0, o1) and 0 < o0.sum() < len(o0)

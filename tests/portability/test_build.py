@@ -9,10 +9,10 @@ import os
 import pyopencl as cl
 import pytest
 
-from texray.device.features import Features, compile_options
+from texray.device.features import Features, compile_options, cpu_avx512
 
 
-@pytest.mark.parametrize("which", ["generic", "lean", "packet8", "packet16"])
+@pytest.mark.parametrize("which", ["generic", "lean", "packet8", "packet16", "packet16-avx512"])
 def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
     slow = {"generic": "over a minute", "packet8": "48 s"}     # cold, this Xeon
     if which in slow and "Intel" in any_rt.device.platform.name and not os.environ.get("TEXRAY_TEST_SLOW_BUILDS"):
@@ -22,15 +22,18 @@ def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
         # the globe (its forced packets). TEXRAY_TEST_SLOW_BUILDS=1 runs both here.
         pytest.skip(f"the {which} program on Intel's runtime takes {slow[which]} to build; "
                     "TEXRAY_TEST_SLOW_BUILDS=1 builds it")
+    if which.endswith("avx512") and (any_rt.kind != "pocl" or not cpu_avx512()):
+        pytest.skip("AVX-512 programs (kernels/texray.cl TX_AVX512) are PoCL's on a CPU with AVX-512")
     f = dataclasses.replace(Features.generic(), one_light=True) if which == "generic" else dataclasses.replace(
         Features(), shadows=False, max_lights=1, stack_size=32)
     options = compile_options(f)
     if which.startswith("packet"):     # shadow-ray packets (accel/packet.h), on any device
         f = Features(textures=True, vertex_normals=True, specular=True, filter_bilinear=True, max_lights=2,
                      stack_size=32, quads=True, spheres=True)      # quads: geometry/quad_packet.h
-        if which == "packet16":        # triangles only, one light per sample (stages/fused.cl TX_ONE_LIGHT)
+        if which.startswith("packet16"):  # triangles only, one light per sample (stages/fused.cl TX_ONE_LIGHT)
             f = dataclasses.replace(f, quads=False, spheres=False, one_light=True)
-        options = {**compile_options(f), "TX_PACKET": int(which.removeprefix("packet"))}
+        options = {**compile_options(f), "TX_PACKET": int(which.removeprefix("packet")[:2]),
+                   "TX_AVX512": int(which.endswith("avx512"))}
     prg = any_rt.program(options, extra_options=("-Werror",))
     names = set(prg.get_info(cl.program_info.KERNEL_NAMES).split(";"))
     assert {"raygen", "intersect", "surface", "shadow", "shade", "render_fused", "occluded"} <= names

@@ -100,8 +100,7 @@ def max_lights_for(n: int) -> int:
 # Ray packets (kernels/accel/packet.h: the camera rays of TX_PACKET of a pixel's samples,
 # and their shadow rays toward each light, traced as one, a vector lane each) per device
 # kind, where they measured faster: PoCL's CPU device, whose LLVM turns the vector
-# arithmetic into AVX2 or AVX-512 code. 8 lanes measured as fast as 16 at 16 spp and faster
-# at 4 and 8; every scene kind gained at 16 spp (the bench scenes, the showcase, instances:
+# arithmetic into AVX2 or AVX-512 code (the width: below). Every scene kind gained at 16 spp (the bench scenes, the showcase, instances:
 # 0.5-0.97 of the scalar frame; README, Performance). A launch summing fewer samples per
 # pixel than the packet has lanes would fill too few (one pixel's packets measured slower at
 # 1 and 2 spp): several pixels per work-item fill them (pixels_per_item), in adaptive
@@ -111,22 +110,36 @@ def max_lights_for(n: int) -> int:
 # come within 10% of PoCL's packets, but it builds the packet programs 2-3x slower (a cold
 # build of the showcase's program: 47 s against 14 s; the globe's 4.7 against 2.2), so the
 # packets stay the user's choice there (2026-12-03, this Xeon; README, Performance).
-PACKET_WIDTHS = {"pocl": 8}
-# Scenes of triangles alone (no other primitive kind, displacement or instances) take 16 lanes
-# there: after the uniform shear (accel/packet.h triangle_packet), 16 lanes took 0.84-0.92 of
-# the frame time of 8 on the textured meshes at 1 to 16 spp and 0.96 on the 1M-triangle mesh,
-# while scenes with spheres or quads ran as fast or slower (globe 1.02, grazing quad 1.04-1.2,
-# showcase 1.03, mixed 1.00; 2026-12-04, a Xeon, medians of 5 frames, TEXRAY_PACKET=8|16). On an
-# AMD EPYC, where PoCL's LLVM 14 emits AVX2 (-target-cpu znver3), the same: textured meshes 0.83
-# at 16 spp and 0.88 at 4, the 1M-triangle mesh 0.96; globe 0.98, brick wall 0.99, mixed 0.99,
-# grazing quad 1.05 (512x384, medians of 3-5 interleaved rounds of 5 frames).
-PACKET_WIDTHS_TRIANGLES = {"pocl": 16}
+PACKET_WIDTHS = {"pocl": 16}
+# 16 lanes: first for scenes of triangles alone (after the uniform shear, accel/packet.h
+# triangle_packet: textured meshes 0.83-0.92 of the frame time of 8 lanes at 1 to 16 spp on a
+# Xeon and on this AMD EPYC, the 1M-triangle mesh 0.96), since the per-packet box planes and
+# movmskps (accel/packet.h TX_PACKET_OCTANT, core/builtins.h) for every scene: 2026-12-06, AMD
+# EPYC, PoCL's LLVM 14 emitting AVX2, tools/ab.py with TEXRAY_PACKET=8 against 16 (medians of
+# 3-5 interleaved rounds of 5-7 frames): brick wall 0.91, grazing quad 0.87, globe 0.97 (512x256
+# at 4 spp, 512x384 at 16), bumped globe 0.95, showcase 0.99, mixed 1.00 (512x384, 4 spp). The
+# earlier code measured globe 0.98-1.02 and grazing quad 1.04-1.2 there, so 8 lanes were the rule.
+# Batches of rays (texray.renderer.trace.Tracer: one ray per pixel, neighbouring pixels' rays in
+# a packet) take TRACE_PACKET_WIDTHS: on the AMD EPYC 8 lanes traced the bench's 1M-triangle
+# mesh faster than 16 (primary rays 12.1 and 13.6 against 11.9 and 11.6 Mrays/s, shadow rays
+# 10.7 and 10.7 against 9.3 and 8.8; 2026-12-06, ``TEXRAY_PACKET=8|16 texray bench --scenes ''
+# --repeat 9``, two alternations; with AVX-512, 15.9 / 15.6 against 15.9 / 15.8 primary and
+# 12.4 / 12.3 against 11.5 / 11.3 shadow).
+TRACE_PACKET_WIDTHS = {"pocl": 8}
+# AVX-512 (kernels/texray.cl TX_AVX512) for PoCL's programs where the CPU runs it
+# (:func:`cpu_avx512`): PoCL 3.0's LLVM 14 knows no Zen 4 and compiles for Zen 3 (AVX2) on this
+# AMD EPYC, which has AVX-512; a target attribute over the program lifts that. Measured there
+# (2026-12-06, tools/ab.py, both at 16 lanes, TEXRAY_AVX512=0 against 1; texray bench --scenes ''
+# for rays): textured meshes 0.92, the Tracer's primary rays 1.05 times the rate at 8 lanes
+# (shadow rays equal), but brick wall 1.05-1.10, grazing quad 1.02, globe 0.98: the lane-by-lane
+# surface code (bump mapping, texel lookups) ran slower. So scenes of triangles alone
+# (:func:`triangles_only`) and the Tracer take it, the others not.
 PACKET_MIN_SAMPLES = 4        # the samples per launch the rules assume when not told
 
 
 def triangles_only(f: Features) -> bool:
     """Whether triangles are the scene's only primitives (no other kind, no displacement, no
-    instances): the scenes whose packets are 16 wide on PoCL (:data:`PACKET_WIDTHS_TRIANGLES`)."""
+    instances): the scenes whose programs take AVX-512 on PoCL (:func:`avx512`)."""
     return f.triangles and not (f.spheres or f.cylinders or f.quads or f.displacement or f.displaced_meshes
                                 or f.instances)
 
@@ -135,9 +148,8 @@ def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN
                  rays: bool = False) -> int:
     """TX_PACKET for a program of features ``f`` on a device of ``device_kind``
     (``texray.device.opencl``'s kinds) whose fused launches sum ``samples`` samples per
-    pixel: the kind's width from :data:`PACKET_WIDTHS` (:data:`PACKET_WIDTHS_TRIANGLES` for
-    scenes of triangles alone, :func:`triangles_only`, unless ``rays``: a program tracing
-    batches of rays, :func:`trace_packet_width`) at any count (:func:`pixels_per_item`
+    pixel: the kind's width from :data:`PACKET_WIDTHS` (:data:`TRACE_PACKET_WIDTHS` with
+    ``rays``: a program tracing batches of rays, :func:`trace_packet_width`) at any count (:func:`pixels_per_item`
     fills the lanes), with shadow rays; else 0 (no packets). ``TEXRAY_PACKET`` (0, 8 or 16)
     overrides the rule for A/B runs. The images are the same whatever the width (accel/packet.h says when a
     closest hit may differ: within rounding of another hit; no scene's image did)."""
@@ -147,19 +159,39 @@ def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN
             raise DeviceError(f"TEXRAY_PACKET: expected 0, 8 or 16, got {override!r}")
         width = int(override)
     else:
-        width = (PACKET_WIDTHS_TRIANGLES if triangles_only(f) and not rays else PACKET_WIDTHS).get(device_kind, 0)
+        width = (TRACE_PACKET_WIDTHS if rays else PACKET_WIDTHS).get(device_kind, 0)
     return width if f.shadows else 0
+
+
+def cpu_avx512() -> bool:
+    """Whether this CPU and its OS run AVX-512 (F, VL, BW, DQ: numpy's runtime check of the CPU
+    and of the OS saving its registers). PoCL's CPU device is this CPU."""
+    try:
+        from numpy._core._multiarray_umath import __cpu_features__ as cpu
+    except ImportError:                                   # numpy 1.x
+        from numpy.core._multiarray_umath import __cpu_features__ as cpu
+    return all(cpu.get(name, False) for name in ("AVX512F", "AVX512VL", "AVX512BW", "AVX512DQ"))
+
+
+def avx512(f: Features, device_kind: str | None, rays: bool = False) -> bool:
+    """TX_AVX512 for a program of features ``f`` on a device of ``device_kind``: PoCL's device
+    on a CPU with AVX-512 (:func:`cpu_avx512`), for the Tracer (``rays``) and scenes of triangles
+    alone (the measurements above PACKET_WIDTHS). ``TEXRAY_AVX512=0`` turns it off, ``=1`` on
+    for every PoCL program (A/B runs); neither where the CPU lacks it."""
+    override = os.environ.get("TEXRAY_AVX512", "").strip()
+    if override not in ("", "0", "1"):
+        raise DeviceError(f"TEXRAY_AVX512: expected 0 or 1, got {override!r}")
+    if device_kind != "pocl" or override == "0" or not cpu_avx512():
+        return False
+    return override == "1" or rays or triangles_only(f)
 
 
 def trace_packet_width(f: Features, device_kind: str | None) -> int:
     """TX_PACKET for :class:`texray.renderer.trace.Tracer`, whose batches of arbitrary rays
     (the bench's: one per pixel, in raster order) fill a packet with neighbouring pixels' rays,
     not with one pixel's samples as the renderer's packets do: the kind's width of
-    :data:`PACKET_WIDTHS` for every scene (8 on PoCL), also for triangles alone. On an AMD EPYC
-    (PoCL's LLVM 14 emits AVX2 there) 8 lanes traced the bench's 1M-triangle mesh faster than 16:
-    primary rays 12.1 and 13.6 against 11.9 and 11.6 Mrays/s, shadow rays 10.7 and 10.7 against
-    9.3 and 8.8 (2026-12-06, ``TEXRAY_PACKET=8|16 texray bench --scenes '' --repeat 9``, two
-    alternations). ``TEXRAY_PACKET`` overrides it as it does :func:`packet_width`."""
+    :data:`TRACE_PACKET_WIDTHS` for every scene (8 on PoCL, where frames take 16; the
+    measurements above it). ``TEXRAY_PACKET`` overrides it as it does :func:`packet_width`."""
     return packet_width(f, device_kind, rays=True)
 
 
@@ -188,6 +220,7 @@ def compile_options(f: Features, device_kind: str | None = None,
     packet width (:func:`packet_width`); no device kind: no packets."""
     return {
         "TX_PACKET": packet_width(f, device_kind, samples, rays),
+        "TX_AVX512": int(avx512(f, device_kind, rays)),
         "TX_MULTI_PIXEL": int(pixels_per_item(f, device_kind, samples) > 1),
         "TX_TEXTURES": int(f.textures),
         "TX_VERTEX_NORMALS": int(f.vertex_normals),
