@@ -1,0 +1,37 @@
+"""Host time per render: the median over N renders (after one) of ``stats["render_s"]``, of the
+kernels' device time and of their difference, the host's work within ``render_s`` (uploads,
+kernel objects, launches, readback, the mean of the samples), for one checkout of texray.
+
+    python tools/host_time.py TREE SCENE.toml W H SPP N
+
+TREE: a source tree (``.`` or a ``git worktree add`` of another commit), whose host code and
+kernels are used. The scene is rendered as ``texray bench --peers`` renders it
+(``texray.bench.peers.comparable_scene``) on PoCL. Run two trees in turn, twice, for an A/B.
+"""
+import statistics
+import sys
+from pathlib import Path
+
+
+def main(argv):
+    tree, scene_path = argv[0], argv[1]
+    w, h, spp, n = map(int, argv[2:6])
+    sys.path.insert(0, str(Path(tree).resolve() / "pyhost"))
+    import texray.device.opencl as o
+    o.KERNEL_DIR = Path(tree).resolve() / "kernels"
+    o._kernel_sources_digest.cache_clear()
+    import texray as tx
+    from texray.bench import peers
+    scene, _ = peers.comparable_scene(tx.Scene.load(scene_path))
+    tx.render(scene, w, h, spp, device="pocl")
+    stats = [tx.render(scene, w, h, spp, device="pocl").stats for _ in range(n)]
+    kernel = [sum(s["stage_s"].values()) for s in stats]
+    med = statistics.median
+    print(f"{Path(tree).resolve().name} {Path(scene_path).stem}: render_s {med(s['render_s'] for s in stats) * 1e3:.2f} ms, "
+          f"kernels {med(kernel) * 1e3:.2f} ms, host {med(s['render_s'] - k for s, k in zip(stats, kernel)) * 1e3:.2f} ms")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 7:
+        sys.exit(__doc__)
+    main(sys.argv[1:])
