@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from dataclasses import dataclass
+from functools import lru_cache
 
 from ..errors import DeviceError
 
@@ -163,13 +164,18 @@ def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN
     return width if f.shadows else 0
 
 
+@lru_cache(maxsize=1)
 def cpu_avx512() -> bool:
     """Whether this CPU and its OS run AVX-512 (F, VL, BW, DQ: numpy's runtime check of the CPU
-    and of the OS saving its registers). PoCL's CPU device is this CPU."""
+    and of the OS saving its registers; False where numpy does not say). PoCL's CPU device is
+    this CPU."""
     try:
         from numpy._core._multiarray_umath import __cpu_features__ as cpu
-    except ImportError:                                   # numpy 1.x
-        from numpy.core._multiarray_umath import __cpu_features__ as cpu
+    except ImportError:
+        try:                                              # numpy 1.x
+            from numpy.core._multiarray_umath import __cpu_features__ as cpu
+        except ImportError:
+            return False
     return all(cpu.get(name, False) for name in ("AVX512F", "AVX512VL", "AVX512BW", "AVX512DQ"))
 
 

@@ -262,7 +262,6 @@ class Runtime:
                 self._programs[key] = prg
         return prg
 
-
     def kernel(self, prg: cl.Program, name: str) -> cl.Kernel:
         """The kernel ``name`` of ``prg`` (a program of this runtime), made once per thread and
         kept: making the six of a render's program cost 1.3 ms a render on PoCL. Per thread,
