@@ -2,11 +2,12 @@
 kernels' device time and of their difference, the host's work within ``render_s`` (uploads,
 kernel objects, launches, readback, the mean of the samples), for one checkout of texray.
 
-    python tools/host_time.py TREE SCENE.toml W H SPP N
+    python tools/host_time.py TREE SCENE.toml W H SPP N [ADAPTIVE]
 
 TREE: a source tree (``.`` or a ``git worktree add`` of another commit), whose host code and
 kernels are used. The scene is rendered as ``texray bench --peers`` renders it
-(``texray.bench.peers.comparable_scene``) on PoCL. Run two trees in turn, twice, for an A/B.
+(``texray.bench.peers.comparable_scene``) on PoCL, with ``render(adaptive=ADAPTIVE)`` if given
+(SPP is then the most a pixel takes). Run two trees in turn, twice, for an A/B.
 """
 import statistics
 import sys
@@ -16,6 +17,7 @@ from pathlib import Path
 def main(argv):
     tree, scene_path = argv[0], argv[1]
     w, h, spp, n = map(int, argv[2:6])
+    kw = {"adaptive": float(argv[6])} if len(argv) > 6 else {}
     sys.path.insert(0, str(Path(tree).resolve() / "pyhost"))
     import texray.device.opencl as o
     o.KERNEL_DIR = Path(tree).resolve() / "kernels"
@@ -23,8 +25,8 @@ def main(argv):
     import texray as tx
     from texray.bench import peers
     scene, _ = peers.comparable_scene(tx.Scene.load(scene_path))
-    tx.render(scene, w, h, spp, device="pocl")
-    stats = [tx.render(scene, w, h, spp, device="pocl").stats for _ in range(n)]
+    tx.render(scene, w, h, spp, device="pocl", **kw)
+    stats = [tx.render(scene, w, h, spp, device="pocl", **kw).stats for _ in range(n)]
     kernel = [sum(s["stage_s"].values()) for s in stats]
     med = statistics.median
     print(f"{Path(tree).resolve().name} {Path(scene_path).stem}: render_s {med(s['render_s'] for s in stats) * 1e3:.2f} ms, "
@@ -32,6 +34,6 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 7:
+    if len(sys.argv) not in (7, 8):
         sys.exit(__doc__)
     main(sys.argv[1:])

@@ -102,8 +102,8 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
     tiles = (band + tile - 1) // tile
     total_passes = tiles * (launches + bool(aovs))
 
-    def report(last):
-        run.passes += 1
+    def report(last, share=1.0):
+        run.passes += share             # share: the part of the tile the pass covered (adaptive_tile's halves)
         if progress is not None:
             last.wait()
             progress(min(1.0, run.passes / total_passes))
@@ -198,6 +198,8 @@ class _Run:
             self.accum = cl.Buffer(ctx, mf.READ_WRITE, n_max * 16)
             self.aov_buf = cl.Buffer(ctx, mf.WRITE_ONLY, n_max * 4 * layout.AOV_FLOATS) if aovs else None
             self.active = cl.Buffer(ctx, mf.READ_ONLY, n_max * 4) if adaptive is not None else None
+            # the second half's active pixels (adaptive_tile)
+            self.active_b = cl.Buffer(ctx, mf.READ_ONLY, n_max * 4) if adaptive is not None else None
             self.sum_y2 = cl.Buffer(ctx, mf.READ_WRITE, n_max * 4) if adaptive is not None else None
             cam = np.zeros(1, layout.CAMERA)
             eye, fwd, right, upv = camera.basis(width / height)
@@ -215,45 +217,83 @@ class _Run:
         self.surface_args = self.up.args("SURFACE", cam=self.cam, image_w=u32(width), image_h=u32(height),
                                          spp=u32(spp))
 
-    def _launch(self, name, gsize, lsize, *args):
-        ev = self.k[name](self.rt.queue, gsize, lsize, *args)
+    def _launch(self, name, gsize, lsize, *args, queue=None):
+        ev = self.k[name](queue or self.rt.queue, gsize, lsize, *args)
         self.events[name].append(ev)
         return ev
 
-    def fused(self, gsize, lsize, n, y0, first, count):
-        """``count`` samples from ``first`` of every pixel of the tile at row y0."""
+    def fused(self, gsize, lsize, n, y0, first, count, queue=None, active=None):
+        """``count`` samples from ``first`` of every pixel of the tile at row y0 (with adaptive
+        sampling: of the n pixels listed in ``active``, default self.active; on ``queue``)."""
         u32, cs = np.uint32, self.cs
-        return self._launch("render_fused", gsize, lsize, self.accum, self.active, self.sum_y2, u32(n), u32(y0),
-                            u32(first), u32(count), u32(self.pixels),
+        return self._launch("render_fused", gsize, lsize, self.accum, active or self.active, self.sum_y2, u32(n),
+                            u32(y0), u32(first), u32(count), u32(self.pixels),
                             u32(self.seed), u32(self.jitter), *self.geom, *self.surface_args, *self.light,
-                            cs.ambient, cs.background)
+                            cs.ambient, cs.background, queue=queue)
 
     def adaptive_tile(self, n, y0, rows, per_launch, report):
         """Sample the tile's n pixels in rounds, each round only those still active
-        (texray.renderer.adaptive), up to spp samples."""
+        (texray.renderer.adaptive), up to spp samples.
+
+        Between rounds the host reads a pixel's sums back and decides whether it goes on: a
+        quarter of the globe's frame at <= 32 spp, during which the device had nothing to do.
+        So the tile's rows are taken as two halves of whole blocks (a pixel's decision depends
+        on its block alone: the same samples as one tile), each with its own queue and list
+        of active pixels, their rounds interleaved: while the host decides one half's next
+        round, the device renders the other's."""
         q, spp, width = self.rt.queue, self.spp, self.width
         cl.enqueue_fill_buffer(q, self.sum_y2, np.float32(0), 0, n * 4)
-        active = np.arange(n, dtype=np.uint32)
+        split = rows // 2 // BLOCK_ROWS * BLOCK_ROWS
+        halves = [(0, split), (split, rows)] if split and y0 % BLOCK_ROWS == 0 else [(0, rows)]
+        if len(halves) > 1:
+            q.finish()                 # the accumulators' zeros, before the other queue's launches
         acc, y2 = np.empty((n, 4), np.float32), np.empty(n, np.float32)
-        done = 0
-        for count in round_sizes(spp):
-            if not len(active):
-                break
-            cl.enqueue_copy(q, self.active, active)
-            gsize, lsize = self.rt.launch_size(-(-len(active) // self.pixels), self.local)
+        rounds = round_sizes(spp)
+        state = [{"r0": r0, "rows": r1 - r0, "p0": r0 * width, "p1": r1 * width,
+                  "active": np.arange(r0 * width, r1 * width, dtype=np.uint32),
+                  "buf": self.active if i == 0 else self.active_b, "q": q if i == 0 else self.rt.side_queue}
+                 for i, (r0, r1) in enumerate(halves)]
+
+        def launch(h, done, count):
+            """Round ``count`` samples from ``done`` of half h's active pixels and, unless it is
+            the last round, the read-back of its sums."""
+            a, hq = h["active"], h["q"]
+            cl.enqueue_copy(hq, h["buf"], a, is_blocking=False)      # a stays in h until decide() waits
+            gsize, lsize = self.rt.launch_size(-(-len(a) // self.pixels), self.local)
             for first in range(done, done + count, per_launch):
-                report(self.fused(gsize, lsize, len(active), y0, first, min(per_launch, done + count - first)))
-            self.samples += len(active) * count
+                report(self.fused(gsize, lsize, len(a), y0, first, min(per_launch, done + count - first),
+                                  queue=hq, active=h["buf"]), (h["p1"] - h["p0"]) / n)
+            self.samples += len(a) * count
+            if done + count < spp:
+                p0, p1 = h["p0"], h["p1"]
+                h["read"] = [cl.enqueue_copy(hq, acc[p0:p1], self.accum, src_offset=p0 * 16, is_blocking=False),
+                             cl.enqueue_copy(hq, y2[p0:p1], self.sum_y2, src_offset=p0 * 4, is_blocking=False)]
+
+        def decide(h):
+            """Half h's pixels that go on. Only this round's pixels can be unconverged: one that
+            was not sampled had converged, and so had its neighbours, and it has no new samples.
+            While every pixel of the half is sampled (the first round), whole rows, not gathers."""
+            cl.wait_for_events(h["read"])
+            a, p0, p1 = h["active"], h["p0"], h["p1"]
+            whole = len(a) == p1 - p0
+            sel = slice(p0, p1) if whole else a
+            mean, se = standard_error(acc[sel, :3], y2[sel], acc[sel, 3])
+            open_ = np.zeros(p1 - p0, bool)
+            open_[slice(None) if whole else a - p0] = unconverged(mean, se, self.adaptive)
+            h["active"] = (np.flatnonzero(dilate(open_, h["rows"], width, y0 + h["r0"])) + p0).astype(np.uint32)
+
+        for h in state:
+            launch(h, 0, rounds[0])
+        done = rounds[0]
+        for count in rounds[1:]:
+            for h in state:
+                if len(h["active"]):
+                    decide(h)
+                    if len(h["active"]):
+                        launch(h, done, count)
             done += count
-            if done < spp:
-                cl.enqueue_copy(q, acc, self.accum)
-                cl.enqueue_copy(q, y2, self.sum_y2)
-                # Only this round's pixels can be unconverged: one that was not sampled had
-                # converged, and so had its neighbours, and it has no new samples.
-                mean, se = standard_error(acc[active, :3], y2[active], acc[active, 3])
-                open_ = np.zeros(n, bool)
-                open_[active] = unconverged(mean, se, self.adaptive)
-                active = np.flatnonzero(dilate(open_, rows, width, y0)).astype(np.uint32)
+        if len(state) > 1:
+            state[1]["q"].finish()     # the other queue's launches, before the tile's read-back on q
 
     def trace(self, gsize, lsize, n, y0, sample, jit, aov):
         """raygen -> intersect -> surface of one sample of the tile (``aov``: the AOV buffer or None)."""
