@@ -40,7 +40,6 @@ from .. import validate as V
 from .adaptive import BLOCK_ROWS
 from .frame import ROW_OPTIONS, device_program, launch_samples, render_rows
 from . import uploads
-from .uploads import CLIENT_ONLY as _CLIENT_ONLY, compiled_key
 
 TASKS_PER_WORKER = 4          # bands per worker, for balance
 MIN_BAND_SAMPLES = 1 << 18    # pixel samples per band at least: ~0.1 s on one PoCL core at 16 spp
@@ -139,13 +138,13 @@ def band_rows(width, rows, spp, workers, rate=None) -> int:
 
 def _for_workers(cs):
     """The compiled scene without what only the client reads."""
-    return dataclasses.replace(cs, **{name: None for name in _CLIENT_ONLY if name != "blas_reused"})
+    return dataclasses.replace(cs, **{name: None for name in uploads.CLIENT_ONLY if name != "blas_reused"})
 
 
 def ship(client, cs):
     """(a Future of ``cs`` on every worker, its key, {"shipped": whether it was sent now,
     "ship_bytes" (its arrays' bytes: all but a few kB of what is sent), "ship_s"}); a scene this client sent before, still held, is not sent again."""
-    key = compiled_key(cs)
+    key = uploads.compiled_key(cs)
     held = _shipped.setdefault(client, OrderedDict())
     fut = held.get(key)
     if fut is not None and fut.status == "finished":

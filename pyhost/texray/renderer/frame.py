@@ -18,7 +18,6 @@ import pyopencl as cl
 
 from ..compile.textures import check_device_limits
 from ..device import layout, runtime
-from ..device.buffers import Uploaded
 from ..device.features import compile_options, pixels_per_item
 from ..errors import DeviceError
 from .adaptive import BLOCK_ROWS, dilate, round_size, round_sizes, standard_error, unconverged
@@ -68,19 +67,20 @@ def device_program(cs, device, local_size, samples=0):
 
 def per_ray_bytes(cs, fused, aovs, adaptive):
     """Device bytes per pixel of a tile: the accumulator; the staged pipeline (and the AOV
-    pass) add the per-ray records."""
+    pass) add the per-ray records; adaptive sampling its luminance squares and the two
+    halves' lists of active pixels (_Run.adaptive_tile)."""
     nl = max(len(cs.lights), 1)
     return (16 + (0 if fused and not aovs else RAY_BYTES - 16 + nl) + (4 * layout.AOV_FLOATS if aovs else 0)
-            + (8 if adaptive is not None else 0))
+            + (12 if adaptive is not None else 0))
 
 
 def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, jitter=True, local=0, aovs=(),
                 adaptive=None, pipeline="fused", memory_limit=None, tile_pixels=None, progress=None, sink=None,
-                uploaded=None) -> Rows:
+                uploaded) -> Rows:
     """Rows ``rows = (y0, y1)`` (default: all) of the ``width`` x ``height`` image of ``cs``
     seen by ``camera``, with the program ``prg`` of runtime ``rt``; the arguments are
-    texray.render's, checked. ``uploaded``: the scene's device buffers, when the caller keeps
-    them across renders (:mod:`.distributed`'s workers)."""
+    texray.render's, checked. ``uploaded``: the scene's device buffers
+    (:func:`texray.renderer.uploads.uploaded`, which keeps them across renders)."""
     y_start, y_end = (0, height) if rows is None else rows
     band = y_end - y_start
     fused = pipeline == "fused"
@@ -186,7 +186,7 @@ class _Run:
         self.n_max = rows * width
         self.passes = 0
         nl = max(len(cs.lights), 1)
-        self.up = uploaded if uploaded is not None else Uploaded(rt.context, cs)
+        self.up = uploaded
         mf, ctx, n_max = cl.mem_flags, rt.context, self.n_max
         try:
             staged = not fused or aovs
@@ -218,7 +218,7 @@ class _Run:
                                          spp=u32(spp))
 
     def _launch(self, name, gsize, lsize, *args, queue=None):
-        ev = self.k[name](queue or self.rt.queue, gsize, lsize, *args)
+        ev = self.k[name](self.rt.queue if queue is None else queue, gsize, lsize, *args)
         self.events[name].append(ev)
         return ev
 
@@ -226,8 +226,8 @@ class _Run:
         """``count`` samples from ``first`` of every pixel of the tile at row y0 (with adaptive
         sampling: of the n pixels listed in ``active``, default self.active; on ``queue``)."""
         u32, cs = np.uint32, self.cs
-        return self._launch("render_fused", gsize, lsize, self.accum, active or self.active, self.sum_y2, u32(n),
-                            u32(y0), u32(first), u32(count), u32(self.pixels),
+        return self._launch("render_fused", gsize, lsize, self.accum, self.active if active is None else active,
+                            self.sum_y2, u32(n), u32(y0), u32(first), u32(count), u32(self.pixels),
                             u32(self.seed), u32(self.jitter), *self.geom, *self.surface_args, *self.light,
                             cs.ambient, cs.background, queue=queue)
 
