@@ -11,6 +11,13 @@ def texture(seed=0, size=16, channels=3, **kw):
     return tx.Texture.from_array(rgb, name=f"noise{seed}", **kw)
 
 
+def edited(t, index, value):
+    """A texture like ``t`` with ``raw[index] = value`` (a texture's texels are read-only)."""
+    raw = t.raw.copy()
+    raw[index] = value
+    return tx.Texture(raw, t.name, t.colorspace, t.wrap, t.uv_transform, t.filter, t.field, t.max_aniso)
+
+
 def rich_scene():
     """A multi-material mesh with uvs, normals, a transform and a projection; a textured,
     MIP-mapped sphere with a label and maps; a bumped quad; a normal-mapped cylinder; a

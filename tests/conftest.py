@@ -112,4 +112,7 @@ def cache_env(tmp_path, monkeypatch):
     monkeypatch.setenv("TEXRAY_CACHE_DIR", str(folder))
     monkeypatch.setenv("TEXRAY_CACHE_MIN_S", "0")
     monkeypatch.delenv("TEXRAY_CACHE_SIZE", raising=False)
+    monkeypatch.setenv("TEXRAY_CACHE_MEMORY", "0")      # the folder alone (tests that keep in memory set it)
+    from texray.compile import cache
+    cache.forget()
     return folder

@@ -1,6 +1,8 @@
 """Host time per render: the median over N renders (after one) of ``stats["render_s"]``, of the
 kernels' device time and of their difference, the host's work within ``render_s`` (uploads,
-kernel objects, launches, readback, the mean of the samples), for one checkout of texray.
+kernel objects, launches, readback, the mean of the samples), and of ``total_s - render_s``,
+the host's work before it (the scene cache: hashing, finding or compiling the scene), for one
+checkout of texray. The same scene object each time: an unchanged scene rendered again.
 
     python tools/host_time.py TREE SCENE.toml W H SPP N [ADAPTIVE]
 
@@ -30,7 +32,9 @@ def main(argv):
     kernel = [sum(s["stage_s"].values()) for s in stats]
     med = statistics.median
     print(f"{Path(tree).resolve().name} {Path(scene_path).stem}: render_s {med(s['render_s'] for s in stats) * 1e3:.2f} ms, "
-          f"kernels {med(kernel) * 1e3:.2f} ms, host {med(s['render_s'] - k for s, k in zip(stats, kernel)) * 1e3:.2f} ms")
+          f"kernels {med(kernel) * 1e3:.2f} ms, host {med(s['render_s'] - k for s, k in zip(stats, kernel)) * 1e3:.2f} ms; "
+          f"total_s - render_s {med(s['total_s'] - s['render_s'] for s in stats) * 1e3:.2f} ms "
+          f"(scene cache: {stats[-1]['scene_cache']})")
 
 
 if __name__ == "__main__":

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import texray as tx
-from cache_scenes import rich_scene
+from cache_scenes import edited, rich_scene
 from texray.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -51,7 +51,8 @@ def test_a_hit_renders_with_the_scenes_current_camera(cache_env, device):
 def test_a_changed_scene_renders_its_own_image(cache_env, device):
     tx.render(rich_scene(), W, H, 1, device=device)
     s = rich_scene()
-    s.objects[2].material.diffuse.raw[:] = 0.9                 # the ball's texels
+    m = s.objects[2].material
+    m.diffuse = edited(m.diffuse, slice(None), 0.9)            # the ball's texels
     img = tx.render(s, W, H, 1, device=device)
     assert img.stats["scene_cache"] == "stored"
     np.testing.assert_array_equal(img.rgb, tx.render(s, W, H, 1, device=device, cache=False).rgb)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import texray as tx
-from cache_scenes import rich_scene
+from cache_scenes import edited, rich_scene
 from texray.compile import cache, cache_file, compile_scene
 from texray.compile.cache_file import CacheFileError, Entry
 from texray.compile.scene_hash import scene_key
@@ -90,7 +90,8 @@ def test_a_hit_takes_the_scenes_current_camera_and_checks_it(cache_env):
 def test_a_changed_scene_misses_and_options_are_entries_of_their_own(cache_env):
     cache.compiled(rich_scene())
     s = rich_scene()
-    s.objects[0].material.diffuse.raw[0, 0, 1] = 0.125         # one texel
+    m = s.objects[0].material
+    m.diffuse = edited(m.diffuse, (0, 0, 1), 0.125)             # one texel
     cs, st = cache.compiled(s)
     assert st["scene_cache"] == "stored"
     assert_same_compiled(cs, compile_scene(s))
@@ -335,6 +336,78 @@ def test_info_and_clear(cache_env):
     assert (n, size) == (2, i["bytes"]) and cache.info()["entries"] == 0
 
 
+def test_a_scene_rendered_again_is_kept_in_memory(cache_env, monkeypatch):
+    """The last TEXRAY_CACHE_MEMORY compiled scenes stay in the process: an unchanged scene is
+    neither compiled nor read again, each caller gets fields of its own and the scene's
+    current camera; a changed scene is compiled again."""
+    monkeypatch.setenv("TEXRAY_CACHE_MEMORY", "2")
+    monkeypatch.setenv("TEXRAY_CACHE_MIN_S", "1000")          # nothing stored: memory alone
+    s = rich_scene()
+    first, st = cache.compiled(s)
+    assert st["scene_cache"] == "miss" and not list(cache_env.glob("*"))
+    first.features = dataclasses.replace(first.features, aovs=True)     # as render() does to its copy
+    s.camera = tx.Camera(eye=(3, 1, 2), look_at=(0, 0.5, 0), fov_y=25)
+    kept, st = cache.compiled(s)
+    assert st["scene_cache"] == "kept" and st["scene_cache_load_s"] == 0.0
+    assert kept is not first and kept.nodes is first.nodes and kept.texels is first.texels
+    assert not kept.features.aovs and kept.camera == s.camera and kept.camera is not s.camera
+    assert kept.source_key == first.source_key
+    assert_same_compiled(kept, compile_scene(s))
+    assert cache.compiled(rich_scene())[1]["scene_cache"] == "kept"      # an equal scene: the same key
+    s.objects[0].positions[0, 1] += 0.5                    # an edit in place of a mesh's array
+    changed, st = cache.compiled(s)
+    assert st["scene_cache"] == "miss"
+    assert_same_compiled(changed, compile_scene(s))
+    m = s.objects[2].material
+    m.diffuse = edited(m.diffuse, (0, 0, 0), 0.5)          # another texture
+    assert cache.compiled(s)[1]["scene_cache"] == "miss"
+    # the bound: 2 kept, the least recently used dropped first
+    assert cache.compiled(rich_scene())[1]["scene_cache"] == "miss"
+    assert cache.compiled(s)[1]["scene_cache"] == "kept"
+    monkeypatch.setenv("TEXRAY_CACHE_MEMORY", "0")
+    assert cache.compiled(s)[1]["scene_cache"] == "miss"
+    monkeypatch.setenv("TEXRAY_CACHE_MEMORY", "1")
+    cache.compiled(s)
+    assert cache.compiled(s)[1]["scene_cache"] == "kept" and cache.forget() == 1
+    assert cache.compiled(s)[1]["scene_cache"] == "miss"
+    assert cache.compiled(s, shadows=False)[1]["scene_cache"] == "miss"   # options are part of the key
+    cache.clear()
+    assert cache.compiled(s, shadows=False)[1]["scene_cache"] == "miss"   # clear() forgets too
+
+
+def test_a_kept_scene_gives_its_warnings_again(cache_env, monkeypatch):
+    monkeypatch.setenv("TEXRAY_CACHE_MEMORY", "2")
+    monkeypatch.setenv("TEXRAY_CACHE_MIN_S", "1000")
+    p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0]], float)
+    s = tx.Scene(lights=[tx.PointLight((0, 0, 5))], objects=[tx.Mesh(p, np.array([[0, 1, 2], [0, 1, 3]]), name="flat")])
+    with pytest.warns(UserWarning, match="flat: 1 zero-area triangle"):
+        assert cache.compiled(s)[1]["scene_cache"] == "miss"
+    with pytest.warns(UserWarning, match="flat: 1 zero-area triangle"):
+        assert cache.compiled(s)[1]["scene_cache"] == "kept"
+
+
+def test_a_disk_hit_is_kept_and_a_texture_is_hashed_once(cache_env, monkeypatch):
+    cache.compiled(rich_scene())                              # stored
+    monkeypatch.setenv("TEXRAY_CACHE_MEMORY", "2")
+    s = rich_scene()
+    assert cache.compiled(s)[1]["scene_cache"] == "hit"
+    for f in cache_env.glob("*"):
+        f.unlink()
+    assert cache.compiled(s)[1]["scene_cache"] == "kept"      # not read from the folder
+    # texture pixels: walked once into a digest kept on them; equal pixels, equal digests
+    t = s.objects[0].material.diffuse
+    assert t._pixels._digest is not None
+    other = rich_scene()
+    assert other.objects[0].material.diffuse._pixels._digest is None
+    scene_key(other)
+    assert t._pixels._digest == other.objects[0].material.diffuse._pixels._digest
+    key = scene_key(s)
+    t._pixels._digest = b"x" * 32                             # a stale digest would be used...
+    assert scene_key(s) != key                                # ...which is why the texels are read-only
+    with pytest.raises(ValueError, match="read-only"):
+        t.raw[0, 0, 0] = 0.0
+
+
 def test_settings(tmp_path):
     home = os.path.expanduser("~")
     assert cache.settings({}).directory == Path(home) / ".cache" / "texray" / "scenes"
@@ -344,12 +417,15 @@ def test_settings(tmp_path):
     sizes = {"123": 123, "500M": 500 * 2**20, "2G": 2 * 2**30, "1.5gib": int(1.5 * 2**30), "64k": 65536, "0": 0}
     for text, n in sizes.items():
         assert cache.settings({"TEXRAY_CACHE_SIZE": text}).size == n
+    assert cache.settings({}).memory == 2 and cache.settings({"TEXRAY_CACHE_MEMORY": "0"}).memory == 0
     assert cache.settings({"TEXRAY_NO_CACHE": "1"}).enabled is False
     assert cache.settings({"TEXRAY_NO_CACHE": "0"}).enabled is True
     for env, match in (({"TEXRAY_CACHE_SIZE": "lots"}, "TEXRAY_CACHE_SIZE: expected a size"),
                        ({"TEXRAY_CACHE_SIZE": "-1"}, "TEXRAY_CACHE_SIZE"),
                        ({"TEXRAY_CACHE_MIN_S": "soon"}, "TEXRAY_CACHE_MIN_S"),
-                       ({"TEXRAY_NO_CACHE": "maybe"}, "TEXRAY_NO_CACHE")):
+                       ({"TEXRAY_NO_CACHE": "maybe"}, "TEXRAY_NO_CACHE"),
+                       ({"TEXRAY_CACHE_MEMORY": "-1"}, "TEXRAY_CACHE_MEMORY: expected a number of scenes"),
+                       ({"TEXRAY_CACHE_MEMORY": "two"}, "TEXRAY_CACHE_MEMORY")):
         with pytest.raises(CacheError, match=match):
             cache.settings(env)
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import texray as tx
-from cache_scenes import rich_scene, texture
+from cache_scenes import edited, rich_scene, texture
 from texray.compile import compile_scene, scene_hash
 from texray.compile.scene_hash import Uncacheable, scene_key
 
@@ -30,7 +30,7 @@ CHANGES = {
     "normal": lambda s: s.objects[1].normals.__setitem__((0, 0), 2.0),
     "material_ids": lambda s: s.objects[1].material_ids.__setitem__(0, 1),
     "transform": lambda s: setattr(s.objects[1].transform, "rotate", (0, 31, 0)),
-    "texel": lambda s: s.objects[0].material.diffuse.raw.__setitem__((3, 4, 0), 0.25),
+    "texel": lambda s: setattr(s.objects[0].material, "diffuse", edited(s.objects[0].material.diffuse, (3, 4, 0), 0.25)),
     "colorspace": _set_colorspace,
     "texture wrap": lambda s: setattr(s.objects[0].material.diffuse, "wrap", "clamp"),
     "texture filter": lambda s: setattr(s.objects[0].material.diffuse, "filter", "nearest"),

@@ -13,6 +13,8 @@
 """
 from __future__ import annotations
 
+import copy
+import pickle
 import re
 
 import numpy as np
@@ -297,6 +299,25 @@ def test_packed_texels_are_the_levels_in_half_floats_converted_once():
     assert a is colour.half_texels("colour", mip=True) and not a.flags.writeable
     cs2 = compile_scene(scene)
     np.testing.assert_array_equal(cs2.texels, cs.texels)
+
+
+def test_texels_are_read_only_and_not_the_callers_array():
+    """The derived caches (role kinds, levels, half texels) are made once from ``raw``: an
+    edit in place would leave them stale, so ``raw`` cannot be edited, and the caller's own
+    float32 array is copied, not kept."""
+    mine = np.full((4, 5, 3), 0.25, dtype=np.float32)
+    t = tx.Texture.from_array(mine, name="mine")
+    before = t.half_texels().copy()
+    mine[:] = 0.75                                              # the caller's array, after
+    np.testing.assert_array_equal(t.raw, 0.25)
+    np.testing.assert_array_equal(t.half_texels(), before)
+    with pytest.raises(ValueError, match="read-only"):
+        t.raw[0, 0, 0] = 1.0
+    assert not t.with_options(filter="trilinear").raw.flags.writeable
+    wide = np.full((2, 2), 0.5)                                 # float64: converted, so already a copy
+    assert not tx.Texture.from_array(wide).raw.flags.writeable
+    assert not tx.Texture.procedural("checker", size=8).raw.flags.writeable
+    assert not pickle.loads(pickle.dumps(t)).raw.flags.writeable and not copy.deepcopy(t).raw.flags.writeable
 
 
 def test_only_trilinear_textures_get_levels():

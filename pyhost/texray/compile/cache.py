@@ -9,6 +9,11 @@ a scene compiled before (in any process) skips the BVH build and the packing.
   0.25): smaller ones compile faster than a file round trip is worth.
 * Size: at most ``TEXRAY_CACHE_SIZE`` bytes (default 2 GiB; suffixes K, M, G), the least
   recently used entries removed after each store (a hit touches its file).
+* In memory: the last ``TEXRAY_CACHE_MEMORY`` compiled scenes (default 2, 0: none) are also
+  kept in the process, whatever their compile time, so that rendering an unchanged scene
+  again (another camera, spp or size) neither compiles it nor reads its file: the scene is
+  still hashed (that is how a change is seen), but textures hash once (their texels are
+  read-only). ``forget()`` drops them.
 * Off: ``TEXRAY_NO_CACHE=1``, ``render(..., cache=False)``, ``texray render --no-cache``.
 
 A file that is truncated, corrupt or of another format is removed with a
@@ -20,9 +25,12 @@ from __future__ import annotations
 
 import builtins
 import copy
+import dataclasses
 import os
+import threading
 import time
 import warnings
+from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,12 +42,16 @@ from .scene import CompiledScene, compile_scene
 from .scene_hash import Uncacheable, scene_key
 
 ENV_DIR, ENV_SIZE, ENV_OFF, ENV_MIN = "TEXRAY_CACHE_DIR", "TEXRAY_CACHE_SIZE", "TEXRAY_NO_CACHE", "TEXRAY_CACHE_MIN_S"
+ENV_MEMORY = "TEXRAY_CACHE_MEMORY"
 DEFAULT_SIZE = 2 * 2**30
 DEFAULT_MIN_S = 0.25
+DEFAULT_MEMORY = 2              # as texray.renderer.uploads.KEEP: the scenes whose buffers stay on the device
 STALE_TEMP_S = 3600.0           # a temporary file this old is a writer's that died
-STATUSES = ("hit", "miss", "stored", "off")
+STATUSES = ("kept", "hit", "miss", "stored", "off")
 _UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
 _registries = {}                # warn_explicit's once-per-location registries, by file
+_kept = OrderedDict()           # key -> (CompiledScene, warning records), least recently used first
+_kept_lock = threading.Lock()
 
 
 @dataclass(frozen=True)
@@ -48,6 +60,7 @@ class Settings:
     size: int               # bytes
     min_seconds: float      # compile time from which a scene is stored
     enabled: bool
+    memory: int = DEFAULT_MEMORY    # compiled scenes kept in the process
 
 
 def settings(environ=None) -> Settings:
@@ -59,7 +72,8 @@ def settings(environ=None) -> Settings:
     else:
         base = env.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
         directory = Path(base) / "texray" / "scenes"
-    return Settings(directory, _size(env.get(ENV_SIZE)), _seconds(env.get(ENV_MIN)), not _off(env))
+    return Settings(directory, _size(env.get(ENV_SIZE)), _seconds(env.get(ENV_MIN)), not _off(env),
+                    _count(env.get(ENV_MEMORY)))
 
 
 def _off(env) -> bool:
@@ -84,6 +98,15 @@ def _size(text):
     return int(value)
 
 
+def _count(text):
+    if text is None or not text.strip():
+        return DEFAULT_MEMORY
+    t = text.strip()
+    if not (t.isdigit() and int(t) < 2**31):
+        raise CacheError(f"{ENV_MEMORY}: expected a number of scenes >= 0 (0: none kept in memory), got {text!r}")
+    return int(t)
+
+
 def _seconds(text):
     if text is None or not text.strip():
         return DEFAULT_MIN_S
@@ -98,7 +121,8 @@ def _seconds(text):
 
 def compiled(scene, shadows=True, texture_filter=None, enabled=True) -> tuple[CompiledScene, dict]:
     """``compile_scene(scene, shadows, texture_filter)`` through the cache: (the compiled
-    scene, with the scene's current camera; stats). ``stats["scene_cache"]`` is "hit"
+    scene, with the scene's current camera; stats). ``stats["scene_cache"]`` is "kept" (held
+    in memory since a render before), "hit"
     (read from the cache), "stored" (compiled and stored), "miss" (compiled, not stored:
     too quick to compile, too big for the cache, or a scene the hash cannot vouch for),
     or "off" (``enabled`` False or TEXRAY_NO_CACHE); ``scene_cache_hash_s``,
@@ -114,16 +138,24 @@ def compiled(scene, shadows=True, texture_filter=None, enabled=True) -> tuple[Co
         key = None
     t1 = time.perf_counter()
     stats["scene_cache_hash_s"] = t1 - t0
-    path = None if key is None else conf.directory / (key + cache_file.SUFFIX)
-    hit = None if path is None else _load(path, key)
-    stats["scene_cache_load_s"] = time.perf_counter() - t1
-    if hit is not None:
-        cs, meta = hit
+    kept = _take(key) if key is not None and conf.memory > 0 else None
+    if kept is not None:
+        cs, records = kept
+        stats["scene_cache"] = "kept"
+    else:
+        path = None if key is None else conf.directory / (key + cache_file.SUFFIX)
+        hit = None if path is None else _load(path, key)
+        stats["scene_cache_load_s"] = time.perf_counter() - t1
+        if hit is not None:
+            cs, meta = hit
+            records = meta.get("warnings", ())
+            _keep(key, cs, records, conf.memory)
+            stats["scene_cache"] = "hit"
+    if stats["scene_cache"] in ("kept", "hit"):
         scene.validate()                       # the camera is not in the key: check it as compile_scene does
         cs.camera = copy.deepcopy(scene.camera)
         cs.source_key = key
-        _replay(meta.get("warnings", ()))
-        stats["scene_cache"] = "hit"
+        _replay(records)
         return cs, stats
     t2 = time.perf_counter()
     cs, caught = _compile_recording(scene, shadows, texture_filter)
@@ -134,7 +166,40 @@ def compiled(scene, shadows=True, texture_filter=None, enabled=True) -> tuple[Co
         if store(path, key, cs, caught, t3 - t2, conf.size):
             stats["scene_cache"] = "stored"
         stats["scene_cache_store_s"] = time.perf_counter() - t3
+    if key is not None:
+        records = [_record(w) for w in caught]
+        if all(r is not None for r in records):      # as store(): warnings that can be given again
+            _keep(key, cs, records, conf.memory)
     return cs, stats
+
+
+def _take(key):
+    """(a copy of the compiled scene kept under ``key``, its warning records), or None. The
+    copy shares the arrays (no caller writes into them) and has fields of its own (callers
+    set features, objects and the camera)."""
+    with _kept_lock:
+        got = _kept.get(key)
+        if got is None:
+            return None
+        _kept.move_to_end(key)
+    return dataclasses.replace(got[0]), got[1]
+
+
+def _keep(key, cs, records, limit):
+    """Keep a copy of ``cs`` under ``key``, the ``limit`` most recent only."""
+    with _kept_lock:
+        _kept[key] = (dataclasses.replace(cs), list(records))
+        _kept.move_to_end(key)
+        while len(_kept) > limit:
+            _kept.popitem(last=False)
+
+
+def forget() -> int:
+    """Drop the compiled scenes kept in memory; how many there were."""
+    with _kept_lock:
+        n = len(_kept)
+        _kept.clear()
+    return n
 
 
 def off_stats() -> dict:
@@ -296,8 +361,10 @@ def info(environ=None) -> dict:
 
 
 def clear(environ=None) -> tuple[int, int]:
-    """Remove every entry (and temporary file); (entries removed, bytes)."""
+    """Remove every entry (and temporary file), and forget the scenes kept in memory; (entries
+    removed, bytes)."""
     conf = settings(environ)
+    forget()
     _remove_stale_temps(conf.directory, 0.0)
     n = size = 0
     for _, s, path in entries(conf.directory):

@@ -17,7 +17,9 @@ their types. The compiler tells textures, materials and pixel arrays apart by
 identity (a material shared by two meshes is one table entry, two equal ones are
 two), so an object met a second time hashes as a reference to its first visit:
 two scenes hash alike only when their object graphs are the same shape with the
-same values. Anything else (user subclasses, objects of other libraries) makes
+same values. An object of a class marked ``HASH_ONCE`` (a texture's pixels, read-only)
+is walked into a digest of its own once, which later walks reuse (the digest is kept
+on the object). Anything else (user subclasses, objects of other libraries) makes
 the scene uncacheable (:func:`scene_key` raises :class:`Uncacheable`), never a key
 that could match a scene compiling differently.
 """
@@ -178,6 +180,18 @@ class _Walker:
                 raise Uncacheable(f"{where}: {cls.__qualname__} has no instance dictionary") from None
             derived = getattr(cls, "DERIVED", ())
             names = sorted(n for n in state if n not in derived)
+        if getattr(cls, "HASH_ONCE", False):
+            # Content that cannot change once made (a texture's read-only pixels): walked into
+            # a hash of its own once, kept on the object as ``_digest`` (one of its DERIVED).
+            digest = getattr(v, "_digest", None)
+            if digest is None:
+                sub = _Walker(hashlib.sha256())
+                for n in names:
+                    _token(sub.h, b".", n.encode())
+                    sub.walk(getattr(v, n), f"{where}.{n}")
+                digest = v._digest = sub.h.digest()
+            _token(self.h, b"d", digest)
+            return
         for n in names:
             _token(self.h, b".", n.encode())
             self.walk(getattr(v, n), f"{where}.{n}")

@@ -89,9 +89,11 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
     cache: True (default) reads the compiled scene from the scene cache when this
     scene (not counting the camera) was compiled before, in any process, and stores
     it when its compile took long enough (:mod:`texray.compile.cache`; the README's
-    "Scene cache"); False compiles it here and leaves the cache alone, as does
-    ``TEXRAY_NO_CACHE=1``. ``stats["scene_cache"]``: "hit", "stored", "miss" or
-    "off"; the same image either way.
+    "Scene cache"); the last two compiled scenes also stay in memory, so that an
+    unchanged scene rendered again (another camera, size or spp) is not compiled
+    again. False compiles it here and leaves the cache alone, as does
+    ``TEXRAY_NO_CACHE=1``. ``stats["scene_cache"]``: "kept", "hit", "stored", "miss"
+    or "off"; the same image either way.
     rows: None (the whole image) or (y0, y1): only the image's rows y0 <= y < y1, as
     a (y1 - y0, W, 3) image equal bit for bit to those rows of the whole image (with
     adaptive sampling y0 and y1 must be multiples of 16, or y1 = height).

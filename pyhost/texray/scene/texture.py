@@ -154,7 +154,7 @@ class Texture:
 
     @property
     def raw(self) -> np.ndarray:
-        """The stored values, float32 (H, W, C)."""
+        """The stored values, float32 (H, W, C), read-only (make a new texture to change them)."""
         return self._pixels.raw
 
     @property
@@ -185,13 +185,21 @@ class Texture:
 
 class _Pixels:
     """Raw pixels shared by the variants of one texture, with the role kinds and MIP
-    pyramids made from them on first use."""
+    pyramids made from them on first use. ``raw`` is read-only (a copy where the caller's
+    array was float32 already): the caches below are made from it once, so an edit in
+    place would leave them stale. To change texels, make a new :class:`Texture`."""
 
-    DERIVED = ("_rgba", "_levels", "_half")   # caches of values made from the others: not content (texray.compile.scene_hash)
+    DERIVED = ("_rgba", "_levels", "_half", "_digest")   # caches made from the others: not content (texray.compile.scene_hash)
+    HASH_ONCE = True        # raw and colorspace never change: the scene hash walks them once (its _digest)
 
     def __init__(self, raw, colorspace):
         self.raw, self.colorspace = raw, colorspace
         self._rgba, self._levels, self._half = {}, {}, {}
+        self._digest = None
+
+    def __setstate__(self, state):                 # a copy or an unpickled one: read-only again
+        self.__dict__.update(state)
+        self.raw.flags.writeable = False
 
     def rgba(self, kind):
         if kind not in self._rgba:
@@ -245,7 +253,11 @@ def _check_pixels(array, name, field):
         raise SceneError(f"{field}: {name}: texel {V.show(wide[tuple(bad)])} at row {bad[0]}, column {bad[1]}, "
                          f"channel {bad[2]} is beyond {HALF_MAX:g}, the largest half float (texels are stored "
                          "as half floats on the device)")
-    return np.ascontiguousarray(a, dtype=np.float32)
+    out = np.ascontiguousarray(a, dtype=np.float32)
+    if np.may_share_memory(out, a):            # the caller's own array: keep a copy they cannot edit under us
+        out = out.copy()
+    out.flags.writeable = False                # texels are content: the derived caches and the device copy follow them
+    return out
 
 
 def role_rgba(raw, colorspace, kind):
