@@ -37,6 +37,24 @@ def test_a_hit_renders_the_stored_image_bit_for_bit(cache_env, device, kw):
     assert hit.stats["features"] == stored.stats["features"]
 
 
+def test_a_kept_scene_renders_the_image_bit_for_bit_with_any_settings(cache_env, device, monkeypatch):
+    """Kept in memory: the render's own changes to its copy (AOVs, the generic table, adaptive
+    sampling) never reach the next render of the scene."""
+    monkeypatch.setenv("TEXRAY_CACHE_MEMORY", "2")
+    s = rich_scene()
+    first = tx.render(s, W, H, 2, device=device)
+    generic = tx.render(s, W, H, 2, device=device, specialize=False, aovs=("uv",))
+    adaptive = tx.render(s, W, H, 8, device=device, adaptive=0.05)
+    again = tx.render(s, W, H, 2, device=device)
+    assert first.stats["scene_cache"] == "stored"
+    assert [i.stats["scene_cache"] for i in (generic, adaptive, again)] == ["kept"] * 3
+    assert again.stats["features"] == first.stats["features"] and not again.stats["features"].aovs
+    np.testing.assert_array_equal(again.rgb, first.rgb)
+    np.testing.assert_array_equal(generic.rgb, tx.render(s, W, H, 2, device=device, cache=False,
+                                                         specialize=False, aovs=("uv",)).rgb)
+    np.testing.assert_array_equal(adaptive.rgb, tx.render(s, W, H, 8, device=device, cache=False, adaptive=0.05).rgb)
+
+
 def test_a_hit_renders_with_the_scenes_current_camera(cache_env, device):
     tx.render(rich_scene(), W, H, 1, device=device)
     s = rich_scene()
