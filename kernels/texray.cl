@@ -44,6 +44,7 @@
 #if TX_PACKET
 #include "core/camera_packet.h"
 #include "shading/light_packet.h"
+#include "shading/surface_packet.h"
 #endif
 #include "stages/raygen.cl"
 #include "stages/intersect.cl"

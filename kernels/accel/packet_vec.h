@@ -121,12 +121,50 @@ static inline __attribute__((always_inline)) pfloat3 pf3_unit_or(pfloat3 v, pflo
     return pf3_sel((m > 0.0f) & (m <= FLT_MAX), pf3_scale(rsqrt(pf3_dot(u, u)), u), fallback);
 }
 
-/* Lane j's Geom from the vectors of a packet geometry (geometry/sphere_packet.h,
- * quad_packet.h), for the lanes j with ml[j] set (a lane mask stored by the caller); the
- * others' left as they were. */
-inline void geom_store_packet(const int* ml, pfloat3 p, pfloat3 ng, pfloat3 dpdu, pfloat3 dpdv, pfloat u, pfloat v,
-                              pfloat3 perr, Geom* g)
+/* core/common.h's normalize3, lane by lane: v * rsqrt(|v|^2) where |v|^2 is a normal finite
+ * float; else v divided by its largest component first; v itself where that is 0 or not
+ * finite. */
+static inline __attribute__((always_inline)) pfloat3 pf3_normalize3(pfloat3 v)
 {
+    pfloat l2 = pf3_dot(v, v);
+    pint direct = (l2 >= FLT_MIN) & (l2 <= FLT_MAX);
+    pfloat3 a = pf3_scale(rsqrt(l2), v);
+    if (all(direct)) return a;
+    pfloat ax = fabs(v.x), ay = fabs(v.y), az = fabs(v.z);
+    pfloat m = PSEL_F(ax > ay, ax, ay);
+    m = PSEL_F(m > az, m, az);
+    pfloat3 w = pf3(v.x / m, v.y / m, v.z / m);
+    pfloat3 b = pf3_scale(rsqrt(pf3_dot(w, w)), w);
+    return pf3_sel(direct, a, pf3_sel((m > 0.0f) & (m <= FLT_MAX), b, v));
+}
+
+/* A packet geometry's vectors as arrays, lane j of each field at [field][j] (TX_GL_* below):
+ * where the surface is evaluated as a packet too (shading/surface_packet.h), the geometry
+ * stays in this form, read back as vectors, never written lane by lane. `set`: whether a
+ * kind has stored its lanes since the packet began (the first stores every lane). */
+enum { TX_GL_PX, TX_GL_PY, TX_GL_PZ, TX_GL_NX, TX_GL_NY, TX_GL_NZ, TX_GL_UX, TX_GL_UY, TX_GL_UZ,
+       TX_GL_VX, TX_GL_VY, TX_GL_VZ, TX_GL_U, TX_GL_V, TX_GL_EX, TX_GL_EY, TX_GL_EZ, TX_GL_FIELDS };
+typedef struct {
+    float f[TX_GL_FIELDS][TX_PACKET];
+    int set;
+} GeomLanes;
+
+/* Lane j's Geom from the vectors of a packet geometry (geometry/sphere_packet.h,
+ * quad_packet.h, triangle_packet.h), for the lanes j with ml[j] set (a lane mask stored by
+ * the caller); the others' left as they were: into g[j] (g not NULL) and into gl's arrays
+ * (gl not NULL; the lanes of m, or every lane for the packet's first kind). */
+inline void geom_store_packet(const int* ml, pfloat3 p, pfloat3 ng, pfloat3 dpdu, pfloat3 dpdv, pfloat u, pfloat v,
+                              pfloat3 perr, Geom* g, GeomLanes* gl)
+{
+    if (gl) {
+        pfloat val[TX_GL_FIELDS] = { p.x, p.y, p.z, ng.x, ng.y, ng.z, dpdu.x, dpdu.y, dpdu.z, dpdv.x, dpdv.y, dpdv.z,
+                                     u, v, perr.x, perr.y, perr.z };
+        pint m = PLOAD(ml);
+        for (int k = 0; k < TX_GL_FIELDS; ++k)
+            PSTORE(gl->set ? PSEL_F(m, val[k], PLOAD(gl->f[k])) : val[k], gl->f[k]);
+        gl->set = 1;
+    }
+    if (!g) return;
     float o[17][TX_PACKET];
     PSTORE(p.x, o[0]); PSTORE(p.y, o[1]); PSTORE(p.z, o[2]);
     PSTORE(ng.x, o[3]); PSTORE(ng.y, o[4]); PSTORE(ng.z, o[5]);

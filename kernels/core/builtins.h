@@ -31,7 +31,17 @@ __attribute__((overloadable)) inline float16 tx_fabs(float16 x) { return as_floa
 
 /* floor and fma as LLVM's intrinsics, which become one instruction (roundss; vfmadd
  * where the target has FMA: __FMA__, else PoCL's own, correctly rounded, call). */
-inline float tx_floor(float x) { return __builtin_floorf(x); }
+__attribute__((overloadable)) inline float tx_floor(float x) { return __builtin_floorf(x); }
+#if defined(__AVX__)
+__attribute__((overloadable)) inline float8 tx_floor(float8 x) { return __builtin_ia32_roundps256(x, 9); }  /* toward -inf */
+#else
+__attribute__((overloadable)) inline float8 tx_floor(float8 x)
+{
+    return (float8)(__builtin_floorf(x.s0), __builtin_floorf(x.s1), __builtin_floorf(x.s2), __builtin_floorf(x.s3),
+                    __builtin_floorf(x.s4), __builtin_floorf(x.s5), __builtin_floorf(x.s6), __builtin_floorf(x.s7));
+}
+#endif
+__attribute__((overloadable)) inline float16 tx_floor(float16 x) { return (float16)(tx_floor(x.lo), tx_floor(x.hi)); }
 #undef floor
 #define floor tx_floor
 #if defined(__FMA__)
@@ -240,8 +250,23 @@ __attribute__((overloadable)) inline float16 tx_convert_float16(uint16 v)
 {
     return (float16)(convert_float8(v.lo), convert_float8(v.hi));
 }
+__attribute__((overloadable)) inline float16 tx_convert_float16(int16 v)
+{
+    return (float16)(convert_float8(v.lo), convert_float8(v.hi));
+}
 #undef convert_float16
 #define convert_float16 tx_convert_float16
+/* convert_int8 and convert_int16 of floats (the packet surface's texel coordinates,
+ * shading/surface_packet.h) as LLVM's fptosi of each lane: toward zero, as a C cast. */
+__attribute__((overloadable)) inline int8 tx_convert_int8(float8 v) { return __builtin_convertvector(v, int8); }
+__attribute__((overloadable)) inline int16 tx_convert_int16(float16 v)
+{
+    return (int16)(tx_convert_int8(v.lo), tx_convert_int8(v.hi));
+}
+#undef convert_int8
+#define convert_int8 tx_convert_int8
+#undef convert_int16
+#define convert_int16 tx_convert_int16
 #undef vstore16
 #define vstore16 tx_vstore16
 #undef vload16

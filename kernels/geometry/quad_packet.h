@@ -84,7 +84,7 @@ inline pint quad_intersect_packet(const PacketRay* r, float3 c0, float3 c1, floa
  * arithmetic: each lane's Geom quad_geom's bit for bit (tests/kernels/test_packet.py); the
  * other lanes' g are left as they were. */
 inline void quad_geom_packet(__global const QuadVerts* quads, __global const QuadShade* quad_shade, const uint* idx,
-                             pint m, pfloat u, pfloat v, Geom* g)
+                             pint m, pfloat u, pfloat v, Geom* g, GeomLanes* gl)
 {
     int ml[TX_PACKET];
     PSTORE(m, ml);
@@ -144,7 +144,7 @@ inline void quad_geom_packet(__global const QuadVerts* quads, __global const Qua
     pfloat inv = 1.0f / det;
     pfloat3 ds = pf3_scale(inv, pf3_sub(pf3_scale(tvy, pu), pf3_scale(tuy, pv)));
     pfloat3 dt = pf3_scale(inv, pf3_sub(pf3_scale(tux, pv), pf3_scale(tvx, pu)));
-    geom_store_packet(ml, p, ng, pf3_sel(ok, ds, pu), pf3_sel(ok, dt, pv), gu, gv, pf3(e, e, e), g);
+    geom_store_packet(ml, p, ng, pf3_sel(ok, ds, pu), pf3_sel(ok, dt, pv), gu, gv, pf3(e, e, e), g, gl);
 }
 
 #endif

@@ -133,7 +133,7 @@ inline pfloat azimuth_u_packet(pfloat x, pfloat y)
  * and sphere_tangents as floatN arithmetic, each lane's Geom sphere_geom's bit for bit
  * (tests/kernels/test_packet.py); the other lanes' g are left as they were. */
 inline void sphere_geom_packet(__global const Sphere* spheres, const uint* idx, pint m, pfloat3 org, pfloat3 dir,
-                               pfloat t, Geom* g)
+                               pfloat t, Geom* g, GeomLanes* gl)
 {
     int ml[TX_PACKET];
     PSTORE(m, ml);
@@ -197,7 +197,7 @@ inline void sphere_geom_packet(__global const Sphere* spheres, const uint* idx, 
     pfloat3 dp_dtheta = pf3_sub(pf3_scale(z, pf3_add(pf3_scale(cos_phi, AX), pf3_scale(sin_phi, AY))),
                                 pf3_scale(rho, AZ));
     pfloat3 dpdu = pf3_scale((pfloat)(2.0f * M_PI_F), dp_dphi), dpdv = pf3_scale((pfloat)(-M_PI_F), dp_dtheta);
-    geom_store_packet(ml, p, n, dpdu, dpdv, gu, gv, perr, g);
+    geom_store_packet(ml, p, n, dpdu, dpdv, gu, gv, perr, g, gl);
 }
 
 #endif

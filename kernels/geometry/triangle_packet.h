@@ -17,27 +17,10 @@
 #include "geometry/triangle.h"
 #include "accel/packet_vec.h"
 
-/* core/common.h's normalize3, lane by lane: v * rsqrt(|v|^2) where |v|^2 is a normal finite
- * float; else v divided by its largest component first; v itself where that is 0 or not
- * finite. */
-static inline __attribute__((always_inline)) pfloat3 pf3_normalize3(pfloat3 v)
-{
-    pfloat l2 = pf3_dot(v, v);
-    pint direct = (l2 >= FLT_MIN) & (l2 <= FLT_MAX);
-    pfloat3 a = pf3_scale(rsqrt(l2), v);
-    if (all(direct)) return a;
-    pfloat ax = fabs(v.x), ay = fabs(v.y), az = fabs(v.z);
-    pfloat m = PSEL_F(ax > ay, ax, ay);
-    m = PSEL_F(m > az, m, az);
-    pfloat3 w = pf3(v.x / m, v.y / m, v.z / m);
-    pfloat3 b = pf3_scale(rsqrt(pf3_dot(w, w)), w);
-    return pf3_sel(direct, a, pf3_sel((m > 0.0f) & (m <= FLT_MAX), b, v));
-}
-
 /* triangle_geom(tris + idx[j], tri_shade + idx[j], b1_j, b2_j, uvs, g + j) for the lanes j of
  * m; the other lanes' g are left as they were. */
 inline void triangle_geom_packet(__global const TriVerts* tris, __global const TriShade* tri_shade,
-                                 __global const float* uvs, const uint* idx, pint m, pfloat b1, pfloat b2, Geom* g)
+                                 __global const float* uvs, const uint* idx, pint m, pfloat b1, pfloat b2, Geom* g, GeomLanes* gl)
 {
     int ml[TX_PACKET];
     PSTORE(m, ml);
@@ -100,7 +83,7 @@ inline void triangle_geom_packet(__global const TriVerts* tris, __global const T
         dpdu = pf3_sel(ok, dpdu, a);
         dpdv = pf3_sel(ok, dpdv, pf3_cross(ng, a));
     }
-    geom_store_packet(ml, p, ng, dpdu, dpdv, u, v, perr, g);
+    geom_store_packet(ml, p, ng, dpdu, dpdv, u, v, perr, g, gl);
 }
 
 #endif

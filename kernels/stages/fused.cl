@@ -176,30 +176,62 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
         int has_pre[TX_CHUNK];
         for (uint j = 0; j < (uint)TX_CHUNK; ++j) pidx[j] = (uint)hp[j] & HIT_INDEX_MASK;
         pint hit_kind = as_pint(as_puint(ph.prim) >> HIT_KIND_SHIFT), pre_lanes = (pint)(0);
+#if TX_SURFACE_PACKET
+        /* the geometry as vectors for surface_packet, not as records (shading/surface_packet.h) */
+        GeomLanes glanes;
+        glanes.set = 0;
+#define TX_GEOM_AOS ((Geom*)0)
+#define TX_GEOM_SOA (&glanes)
+#else
+#define TX_GEOM_AOS pre
+#define TX_GEOM_SOA ((GeomLanes*)0)
+#endif
 #if TX_SPHERES
         pint on_sphere = (pint)(TX_LANES(act)) & (hit_kind == (int)PRIM_SPHERE);
         if (any(on_sphere))
-            sphere_geom_packet(spheres, pidx, on_sphere, pf3(pr.ox, pr.oy, pr.oz), pf3(pr.dx, pr.dy, pr.dz), ph.t, pre);
+            sphere_geom_packet(spheres, pidx, on_sphere, pf3(pr.ox, pr.oy, pr.oz), pf3(pr.dx, pr.dy, pr.dz), ph.t, TX_GEOM_AOS, TX_GEOM_SOA);
         pre_lanes |= on_sphere;
 #endif
 #if TX_QUADS
         pint on_quad = (pint)(TX_LANES(act)) & (hit_kind == (int)PRIM_QUAD);
         if (any(on_quad))
-            quad_geom_packet(quads, quad_shade, pidx, on_quad, ph.b1, ph.b2, pre);
+            quad_geom_packet(quads, quad_shade, pidx, on_quad, ph.b1, ph.b2, TX_GEOM_AOS, TX_GEOM_SOA);
         pre_lanes |= on_quad;
 #endif
 #if TX_TRI_GEOM_PACKET
         pint on_tri = (pint)(TX_LANES(act)) & (hit_kind == (int)PRIM_TRIANGLE);
         if (any(on_tri))
-            triangle_geom_packet(tris, tri_shade, uvs, pidx, on_tri, ph.b1, ph.b2, pre);
+            triangle_geom_packet(tris, tri_shade, uvs, pidx, on_tri, ph.b1, ph.b2, TX_GEOM_AOS, TX_GEOM_SOA);
         pre_lanes |= on_tri;
 #endif
         PSTORE(pre_lanes, has_pre);
+#if TX_SURFACE_PACKET
+        /* their surfaces as one vector computation too (shading/surface_packet.h); the loop
+         * below evaluates the other lanes */
+        if (any(pre_lanes)) {
+            int hkl[TX_CHUNK];
+            PSTORE(hit_kind, hkl);
+            surface_packet(&pr, has_pre, hkl, pidx, &glanes, TX_GEOM_ARGS, TX_SURFACE_ARGS, s, v);
+        }
+#endif
+#undef TX_GEOM_AOS
+#undef TX_GEOM_SOA
 #define TX_PRE_GEOM(j) (has_pre[j] ? pre + (j) : (const Geom*)0)
 #else
 #define TX_PRE_GEOM(j) ((const Geom*)0)
 #endif
+#if TX_SURFACE_PACKET_ONLY
+        /* every hit is the packet's (shading/surface_packet.h): the other lanes missed, and the
+         * scalar surface_eval is not in this kernel at all (its code generation is a quarter of
+         * such a program's first launch) */
+        for (uint j = 0; j < m; ++j)
+            if (!has_pre[j]) s[j].valid = 0u;
+        if (0) {
+#endif
         for (uint j = 0; j < m; ++j) {
+#if TX_SURFACE_PACKET && (TX_SPHERES || TX_QUADS || TX_TRI_GEOM_PACKET)
+            if (has_pre[j]) continue;
+#endif
             /* the traced ray; a lane not traced has none to shade (its hit: a miss) */
             float3 org = (float3)(pr.org[0][j], pr.org[1][j], pr.org[2][j]);
             float3 dir = (float3)(pr.dir[0][j], pr.dir[1][j], pr.dir[2][j]);
@@ -221,6 +253,9 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #undef TX_PRE_GEOM
             if (s[j].valid) v[j] = -normalize3(dir);
         }
+#if TX_SURFACE_PACKET_ONLY
+        }
+#endif
         /* What reads the records back, in a loop of its own: read right after surface_eval
          * wrote them (as scalars), their vector fields' loads waited on the stores (perf put
          * the globe's hottest instruction there); apart, tools/ab.py measured 0.98 of the

@@ -478,7 +478,7 @@ __kernel void sphere_geoms(__global const Sphere* spheres, __global const uint* 
     pint m = (pint)(TX_LANES(act));
     if (any(m))
         sphere_geom_packet(spheres, idx, m, pf3(pr.ox, pr.oy, pr.oz), pf3(pr.dx, pr.dy, pr.dz), (pfloat)(TX_LANES(tt)),
-                           gp);
+                           gp, (GeomLanes*)0);
     for (uint j = 0; j < (uint)TX_PACKET; ++j) {
         uint k = TX_PACKET * i + j;
         hit[k] = act[j];
@@ -579,7 +579,7 @@ __kernel void quad_geoms(__global const QuadVerts* quads, __global const QuadSha
         pu[j] = params[2 * k]; pv[j] = params[2 * k + 1];
         quad_geom(quads + idx[j], qs + idx[j], (float2)(pu[j], pv[j]), gs + j);
     }
-    quad_geom_packet(quads, qs, idx, (pint)(-1), (pfloat)(TX_LANES(pu)), (pfloat)(TX_LANES(pv)), gp);
+    quad_geom_packet(quads, qs, idx, (pint)(-1), (pfloat)(TX_LANES(pu)), (pfloat)(TX_LANES(pv)), gp, (GeomLanes*)0);
     for (uint j = 0; j < (uint)TX_PACKET; ++j) {
         uint k = TX_PACKET * i + j;
         store_geom(gs + j, out_s + 17 * k);
@@ -679,7 +679,7 @@ __kernel void tri_geoms(__global const TriVerts* tris, __global const TriShade* 
         gp[j] = gs[j];
         gp[j].p.x = -7.0f;                        /* a lane outside the mask must keep this */
     }
-    triangle_geom_packet(tris, ts, uvs, idx, PLOAD(ml), PLOAD(b1), PLOAD(b2), gp);
+    triangle_geom_packet(tris, ts, uvs, idx, PLOAD(ml), PLOAD(b1), PLOAD(b2), gp, (GeomLanes*)0);
     for (uint j = 0; j < (uint)TX_PACKET; ++j) {
         uint k = TX_PACKET * i + j;
         store_geom(gs + j, out_s + 17 * k);

@@ -12,9 +12,11 @@ import pytest
 from texray.device.features import Features, compile_options, cpu_avx512
 
 
-@pytest.mark.parametrize("which", ["generic", "lean", "packet8", "packet16", "packet16-avx512"])
+@pytest.mark.parametrize("which", ["generic", "lean", "packet8", "packet16", "packet16-avx512", "surface8",
+                                   "surface16"])
 def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
-    slow = {"generic": "over a minute", "packet8": "48 s"}     # cold, this Xeon
+    slow = {"generic": "over a minute", "packet8": "48 s", "surface8": "about a minute",
+            "surface16": "about a minute"}     # cold, this Xeon
     if which in slow and "Intel" in any_rt.device.platform.name and not os.environ.get("TEXRAY_TEST_SLOW_BUILDS"):
         # The generic program: 64-77 s on Intel's runtime (the README's "Default device"), a twentieth
         # of the CI budget; its specialized programs are built by the other portability tests. The
@@ -34,10 +36,14 @@ def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
             f = dataclasses.replace(f, quads=False, spheres=False, one_light=True)
         options = {**compile_options(f), "TX_PACKET": int(which.removeprefix("packet")[:2]),
                    "TX_AVX512": int(which.endswith("avx512"))}
+    if which.startswith("surface"):    # the packet surface (shading/surface_packet.h): every kind, bump
+        f = Features(textures=True, specular=True, bump=True, filter_bilinear=True, max_lights=2, stack_size=32,
+                     quads=True, spheres=True, triangles=True, cylinders=True)
+        options = {**compile_options(f), "TX_PACKET": int(which.removeprefix("surface"))}
     prg = any_rt.program(options, extra_options=("-Werror",))
     names = set(prg.get_info(cl.program_info.KERNEL_NAMES).split(";"))
     assert {"raygen", "intersect", "surface", "shadow", "shade", "render_fused", "occluded"} <= names
-    assert ("occluded_packet" in names) == which.startswith("packet")
+    assert ("occluded_packet" in names) == which.startswith(("packet", "surface"))
 
 
 def test_the_bvh_build_kernel_builds_and_gives_a_valid_tree(any_rt, monkeypatch):

@@ -306,11 +306,17 @@ def test_scene_cache_round_trip(tmp_path, monkeypatch, device):
     monkeypatch.delenv("TEXRAY_NO_CACHE", raising=False)
     monkeypatch.setenv("TEXRAY_CACHE_DIR", str(tmp_path))
     monkeypatch.setenv("TEXRAY_CACHE_MIN_S", "0")
+    monkeypatch.setenv("TEXRAY_CACHE_MEMORY", "1")
+    from texray.compile import cache
+    cache.forget()
     a, _ = _pair()
     first = tx.render(a, 32, 32, spp=1, device=device)
+    kept = tx.render(a, 32, 32, spp=1, device=device)
+    cache.forget()                                        # from the file, not from memory
     again = tx.render(a, 32, 32, spp=1, device=device)
-    assert (first.stats["scene_cache"], again.stats["scene_cache"]) == ("stored", "hit")
+    assert [i.stats["scene_cache"] for i in (first, kept, again)] == ["stored", "kept", "hit"]
     np.testing.assert_array_equal(first.rgb, again.rgb)
+    np.testing.assert_array_equal(first.rgb, kept.rgb)
 
 
 def test_moving_instances_rebuild_only_the_top_level(device, monkeypatch):

@@ -1,0 +1,445 @@
+#line 2 "shading/surface_packet.h"
+/* Surface evaluation for a packet's hits at once, a lane each: what surface_eval
+ * (shading/surface.h) computes for a hit whose geometry the packet already has
+ * (stages/fused.cl's sphere, quad and triangle packets), written as vectors over the
+ * lanes -- the bilinear lookups' coordinates, wrap modes and weights, bump mapping's
+ * gradient and normal, the normals turned to the viewer, the material terms and the
+ * record's checks -- where the scalar code did them lane after lane (a third of a
+ * bumped brick wall's frame, perf). Only the texel reads stay one lane at a time.
+ *
+ * Every lane computes surface_eval's arithmetic in the same order with the same
+ * contraction (off here, as after core/accurate.h; dot and cross as core/common.h
+ * compiles them: accel/packet_vec.h), so the record is surface_eval's bit for bit
+ * (tests: the images of every scene with packets against those without).
+ *
+ * Compiled in (TX_SURFACE_PACKET) for the programs whose surfaces need nothing else:
+ * packets, bilinear textures alone, no projections, vertex normals, labels, specular,
+ * shininess or normal maps, AOVs or instances. A hit without the packet's geometry
+ * (a cylinder, a displaced shape) is still evaluated lane by lane. */
+#ifndef TEXRAY_SURFACE_PACKET_H
+#define TEXRAY_SURFACE_PACKET_H
+#include "shading/surface.h"
+#include "accel/packet.h"
+
+#if TX_PACKET && !TX_INSTANCES && !TX_AOVS && !TX_PROJECTIONS && !TX_VERTEX_NORMALS && !TX_LABELS \
+    && !TX_SPECULAR_MAPS && !TX_SHININESS_MAPS && !TX_NORMAL_MAPS && !TX_FILTER_NEAREST && !TX_FILTER_TRILINEAR \
+    && !TX_FILTER_ANISOTROPIC
+#define TX_SURFACE_PACKET 1
+#else
+#define TX_SURFACE_PACKET 0
+#endif
+/* Whether every kind of hit the program can meet has the packet's geometry (no cylinders,
+ * displaced shapes or instances), so that the fused kernel needs no scalar surface_eval. */
+#if TX_SURFACE_PACKET && !TX_CYLINDERS && !TX_DISPLACEMENT && (!TX_TRIANGLES || TX_TRI_GEOM_PACKET) \
+    && (TX_SPHERES || TX_QUADS || TX_TRIANGLES)
+#define TX_SURFACE_PACKET_ONLY 1
+#else
+#define TX_SURFACE_PACKET_ONLY 0
+#endif
+
+#if TX_SURFACE_PACKET
+#pragma OPENCL FP_CONTRACT OFF
+
+#if TX_PACKET == 16
+#define convert_pint convert_int16
+#define convert_pfloat convert_float16
+#else
+#define convert_pint convert_int8
+#define convert_pfloat convert_float8
+#endif
+
+/* The lanes' textures: TextureInfo fields, one lane each (texture_level 0: bilinear). */
+typedef struct {
+    pint off, w, h, mode;
+    pfloat m0x, m0y, m0z, m0w, m1x, m1y;
+} TexPacket;
+
+/* The lanes' TextureInfo fields, one read per lane: out of line, as packets whose lanes use
+ * several textures are few (an object's edge). ti_: each lane's texture. */
+static __attribute__((noinline)) void tex_gather_packet(__global const TextureInfo* textures, const int* ti_,
+                                                        TexPacket* t)
+{
+#define TX_TI(j, f) textures[ti_[j]].f
+    t->off = as_pint((puint)PGATHER_A(TX_TI, offset)); t->w = as_pint((puint)PGATHER_A(TX_TI, width));
+    t->h = as_pint((puint)PGATHER_A(TX_TI, height)); t->mode = as_pint((puint)PGATHER_A(TX_TI, wrap));
+    t->m0x = (pfloat)PGATHER_A(TX_TI, m0[0]); t->m0y = (pfloat)PGATHER_A(TX_TI, m0[1]);
+    t->m0z = (pfloat)PGATHER_A(TX_TI, m0[2]); t->m0w = (pfloat)PGATHER_A(TX_TI, m0[3]);
+    t->m1x = (pfloat)PGATHER_A(TX_TI, m1[0]); t->m1y = (pfloat)PGATHER_A(TX_TI, m1[1]);
+#undef TX_TI
+}
+
+/* The textures tex[j] of the lanes `ml` (others read the first such lane's): one read where
+ * they all use one texture (a wall, a floor: nearly every packet). */
+static inline __attribute__((always_inline)) TexPacket tex_packet(__global const TextureInfo* textures,
+                                                                  const int* tex, const int* ml)
+{
+    TexPacket t;
+    uint k0 = packet_first_lane(ml);
+    int one = 1;
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) one &= !ml[j] || tex[j] == tex[k0];
+    if (one) {
+        __global const TextureInfo* ti = textures + tex[k0];
+        t.off = (pint)((int)ti->offset); t.w = (pint)((int)ti->width); t.h = (pint)((int)ti->height);
+        t.mode = (pint)((int)ti->wrap);
+        t.m0x = (pfloat)(ti->m0[0]); t.m0y = (pfloat)(ti->m0[1]); t.m0z = (pfloat)(ti->m0[2]);
+        t.m0w = (pfloat)(ti->m0[3]); t.m1x = (pfloat)(ti->m1[0]); t.m1y = (pfloat)(ti->m1[1]);
+        return t;
+    }
+    int ti_[TX_PACKET];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) ti_[j] = ml[j] ? tex[j] : tex[k0];
+    tex_gather_packet(textures, ti_, &t);
+    return t;
+}
+
+/* texture/wrap.h's wrap_reduce, lane by lane. */
+static inline __attribute__((always_inline)) pfloat wrap_reduce_packet(pfloat u, pint mode)
+{
+    pfloat c = PSEL_F(u < -1.0f, (pfloat)(-1.0f), PSEL_F(u > 2.0f, (pfloat)(2.0f), u));
+    pfloat r = PSEL_F(mode == TX_WRAP_MIRROR, u - 2.0f * floor(0.5f * u), u - floor(u));
+    r = PSEL_F(fabs(u) == INFINITY, (pfloat)(0.0f), r);
+    r = PSEL_F(mode == TX_WRAP_CLAMP, c, r);
+    return PSEL_F(u != u, (pfloat)(0.0f), r);
+}
+
+/* wrap_index for the lanes j of both fl and ml, into rl[j]: out of line, as it is (nearly) never
+ * run (a call's code once, not in each of the lookups). */
+static __attribute__((noinline)) void wrap_index_lanes(const int* il, const int* nl, const int* mode, const int* fl,
+                                                       const int* ml, int* rl)
+{
+    for (uint j = 0; j < (uint)TX_PACKET; ++j)
+        if (fl[j] && ml[j]) rl[j] = wrap_index(il[j], nl[j], mode[j]);
+}
+
+/* texture/wrap.h's wrap_index, lane by lane, for the indices a reduced coordinate gives
+ * (i in [-n, 2n) for repeat, [-2n, 4n) for mirror: one period's step); the lanes of `ml`
+ * beyond them, if any, take the scalar function. */
+static inline __attribute__((always_inline)) pint wrap_index_packet(pint i, pint n, pint mode, const int* ml)
+{
+    pint p = n + n;
+    pint c = PSEL_I(i < 0, (pint)(0), PSEL_I(i >= n, n - 1, i));
+    pint m = PSEL_I(i < 0, i + p, PSEL_I(i >= p, i - p, i));
+    m = PSEL_I(m < n, m, p - 1 - m);
+    pint r = PSEL_I(i < 0, i + n, PSEL_I(i >= n, i - n, i));
+    r = PSEL_I(mode == TX_WRAP_CLAMP, c, PSEL_I(mode == TX_WRAP_MIRROR, m, r));
+    r = PSEL_I(as_pint(as_puint(i) < as_puint(n)), i, r);
+    r = PSEL_I(n <= 1, (pint)(0), r);
+    pint far = (mode != TX_WRAP_CLAMP) & (n > 1) & (PSEL_I(mode == TX_WRAP_MIRROR, i < -p, i < -n)
+                                                   | PSEL_I(mode == TX_WRAP_MIRROR, i >= p + p, i >= p));
+    if (any(far)) {                              /* not met by reduced coordinates; kept exact */
+        int il[TX_PACKET], nl[TX_PACKET], ml_[TX_PACKET], rl[TX_PACKET], fl[TX_PACKET];
+        PSTORE(i, il); PSTORE(n, nl); PSTORE(mode, ml_); PSTORE(r, rl); PSTORE(far, fl);
+        wrap_index_lanes(il, nl, ml_, fl, ml, rl);
+        r = PLOAD(rl);
+    }
+    return r;
+}
+
+/* The four taps of texture_bilinear_level (level 0) for the lanes `ml` at transformed
+ * coordinates (u, v): their texel indices and the weights ax, ay (bilinear_taps). */
+static __attribute__((noinline)) void bilinear_taps_packet(const TexPacket* t, const pfloat* up, const pfloat* vp,
+                                                            const int* ml, pint* i00, pint* i10, pint* i01,
+                                                            pint* i11, pfloat* ax, pfloat* ay)
+{
+    pfloat u = *up, v = *vp;
+    pfloat x = wrap_reduce_packet(u, t->mode) * convert_pfloat(t->w) - 0.5f;
+    pfloat y = (1.0f - wrap_reduce_packet(v, t->mode)) * convert_pfloat(t->h) - 0.5f;
+    pfloat fx = floor(x), fy = floor(y);
+    pint ix = convert_pint(fx), iy = convert_pint(fy);
+    pint x0 = wrap_index_packet(ix, t->w, t->mode, ml), x1 = wrap_index_packet(ix + 1, t->w, t->mode, ml);
+    pint y0 = wrap_index_packet(iy, t->h, t->mode, ml), y1 = wrap_index_packet(iy + 1, t->h, t->mode, ml);
+    /* texel_at: offset + y w + x, in uint */
+    puint off = as_puint(t->off), w = as_puint(t->w);
+    *i00 = as_pint(off + as_puint(y0) * w + as_puint(x0));
+    *i10 = as_pint(off + as_puint(y0) * w + as_puint(x1));
+    *i01 = as_pint(off + as_puint(y1) * w + as_puint(x0));
+    *i11 = as_pint(off + as_puint(y1) * w + as_puint(x1));
+    *ax = x - fx;
+    *ay = y - fy;
+}
+
+/* texture_bilinear_level's blend of one channel, lane by lane. */
+#define TX_BLEND_P(c00, c10, c01, c11, ax, ay) \
+    (((c00) * (1.0f - (ax)) + (c10) * (ax)) * (1.0f - (ay)) + ((c01) * (1.0f - (ax)) + (c11) * (ax)) * (ay))
+
+/* Texel channels of the lanes `ml` at indices i (others 0): `nch` channels (1: red only). */
+static inline __attribute__((always_inline)) void texels_packet(__global const half* texels, pint i, const int* ml,
+                                                                int nch, pfloat* r, pfloat* g, pfloat* b)
+{
+    int il[TX_PACKET];
+    float rl[TX_PACKET], gl[TX_PACKET], bl[TX_PACKET];
+    PSTORE(i, il);
+    #pragma nounroll
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        float4 c = ml[j] ? vload_half4((uint)il[j], texels) : (float4)(0.0f);
+        rl[j] = c.x; gl[j] = c.y; bl[j] = c.z;
+    }
+    *r = PLOAD(rl);
+    if (nch > 1) { *g = PLOAD(gl); *b = PLOAD(bl); }
+}
+
+#if TX_BUMP
+/* texture_bilinear(texels, ti, uv).x of the lanes `ml` (bump_value). */
+static __attribute__((noinline)) void bilinear_red_packet(__global const half* texels, const TexPacket* t,
+                                                           const pfloat* u, const pfloat* v, const int* ml,
+                                                           pfloat* out)
+{
+    pint i00, i10, i01, i11;
+    pfloat ax, ay, r[4], unused;
+    bilinear_taps_packet(t, u, v, ml, &i00, &i10, &i01, &i11, &ax, &ay);
+    texels_packet(texels, i00, ml, 1, r, &unused, &unused);
+    texels_packet(texels, i10, ml, 1, r + 1, &unused, &unused);
+    texels_packet(texels, i01, ml, 1, r + 2, &unused, &unused);
+    texels_packet(texels, i11, ml, 1, r + 3, &unused, &unused);
+    *out = TX_BLEND_P(r[0], r[1], r[2], r[3], ax, ay);
+}
+
+/* shading/bump.h's bump_gradient (level 0: no MIP filter in these programs) of the lanes
+ * `ml`, at their untransformed uv: (B_u, B_v) into *gu, *gv. */
+static inline __attribute__((always_inline)) void bump_gradient_packet(__global const half* texels,
+                                                                      const TexPacket* t, pfloat u, pfloat v,
+                                                                      pfloat height, pfloat delta, const int* ml,
+                                                                      pfloat* gu, pfloat* gv)
+{
+    pfloat su = t->m0x * u + t->m0y * v + t->m1x, sv = t->m0z * u + t->m0w * v + t->m1y;   /* uv_transform */
+    pfloat gx, gy;
+    int dl[TX_PACKET], exact = 0, diff = 0;
+    PSTORE(as_pint(delta < 0.0f), dl);
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        exact |= ml[j] && dl[j];
+        diff |= ml[j] && !dl[j];
+    }
+    pfloat ex = (pfloat)(0.0f), ey = (pfloat)(0.0f), cx = (pfloat)(0.0f), cy = (pfloat)(0.0f);
+    if (exact) {                                 /* bump_gradient_bilinear */
+        int me[TX_PACKET];
+        for (uint j = 0; j < (uint)TX_PACKET; ++j) me[j] = ml[j] && dl[j];
+        pint i00, i10, i01, i11;
+        pfloat ax, ay, c[4], unused;
+        bilinear_taps_packet(t, &su, &sv, me, &i00, &i10, &i01, &i11, &ax, &ay);
+        texels_packet(texels, i00, me, 1, c, &unused, &unused);
+        texels_packet(texels, i10, me, 1, c + 1, &unused, &unused);
+        texels_packet(texels, i01, me, 1, c + 2, &unused, &unused);
+        texels_packet(texels, i11, me, 1, c + 3, &unused, &unused);
+        /* bilinear_gradient */
+        pfloat dx = (c[1] - c[0]) * (1.0f - ay) + (c[3] - c[2]) * ay;
+        pfloat dy = (c[2] - c[0]) * (1.0f - ax) + (c[3] - c[1]) * ax;
+        ex = dx * convert_pfloat(t->w);
+        ey = -dy * convert_pfloat(t->h);
+    }
+    if (diff) {                                  /* central differences */
+        int md[TX_PACKET];
+        for (uint j = 0; j < (uint)TX_PACKET; ++j) md[j] = ml[j] && !dl[j];
+        pfloat dx = PSEL_F(delta > 0.0f, delta, 1.0f / convert_pfloat(t->w));   /* texture_texel_size */
+        pfloat dy = PSEL_F(delta > 0.0f, delta, 1.0f / convert_pfloat(t->h));
+        pfloat su_[4] = { su + dx, su - dx, su, su }, sv_[4] = { sv, sv, sv + dy, sv - dy }, b[4];
+        for (int k = 0; k < 4; ++k)                /* bump_value at uv +- (dx, 0), uv +- (0, dy) */
+            bilinear_red_packet(texels, t, su_ + k, sv_ + k, md, b + k);
+        cx = (b[0] - b[1]) / (2.0f * dx);
+        cy = (b[2] - b[3]) / (2.0f * dy);
+    }
+    pint e = delta < 0.0f;
+    gx = PSEL_F(e, ex, cx);
+    gy = PSEL_F(e, ey, cy);
+    *gu = height * (gx * t->m0x + gy * t->m0z);
+    *gv = height * (gx * t->m0y + gy * t->m0w);
+}
+
+/* core/frame.h's any_tangent, lane by lane. */
+static inline __attribute__((always_inline)) pfloat3 any_tangent_packet(pfloat3 n)
+{
+    pint bx = fabs(n.x) > fabs(n.z);
+    pfloat3 a = pf3(PSEL_F(bx, -n.y, (pfloat)(0.0f)), PSEL_F(bx, n.x, -n.z), PSEL_F(bx, (pfloat)(0.0f), n.y));
+    return pf3_normalize3(a);
+}
+
+/* core/frame.h's bump_normal, lane by lane. */
+static inline __attribute__((always_inline)) pfloat3 bump_normal_packet(pfloat3 n, pfloat3 dpdu, pfloat3 dpdv,
+                                                                       pfloat gu, pfloat gv)
+{
+    pfloat3 pu = pf3_sub(dpdu, pf3_scale(pf3_dot(dpdu, n), n)), pv = pf3_sub(dpdv, pf3_scale(pf3_dot(dpdv, n), n));
+    pfloat j = pf3_dot(pf3_cross(pu, pv), n);
+    pfloat3 q = pf3_sub(pf3_scale(gu, pf3_cross(n, pv)), pf3_scale(gv, pf3_cross(n, pu)));
+    pfloat3 r = pf3_add(n, pf3(q.x / j, q.y / j, q.z / j));
+    pint keep = ((gu == 0.0f) & (gv == 0.0f)) | !(fabs(j) > 0.0f);
+    return pf3_sel(keep, n, pf3_unit_or(r, n));
+}
+
+/* shading/bump.h's bump_turn_toward, lane by lane (bound per lane): *ap turned toward *bp. Out
+ * of line: called twice, rarely with work to do. */
+static __attribute__((noinline)) void turn_toward_packet(pfloat3* ap, const pfloat3* bp, const pfloat* boundp)
+{
+    pfloat3 a = *ap, b = *bp;
+    pfloat bound = *boundp;
+    pfloat c = pf3_dot(a, b);
+    pint done = c >= bound;
+    if (all(done)) return;
+    pfloat3 w = pf3_unit_or(pf3_sub(a, pf3_scale(c, b)), any_tangent_packet(b));
+    pfloat3 t = pf3_add(pf3_scale(bound, b), pf3_scale(sqrt(1.0f - bound * bound), w));
+    *ap = pf3_sel(done, a, t);
+}
+#endif
+
+/* The lanes' material terms, one read per lane (mat: each lane's material): out of line, as
+ * packets whose lanes have several materials are few. */
+#if TX_BUMP
+#define TX_MAT_BUMP_PARAMS , pfloat* bh, pfloat* bd
+#define TX_MAT_BUMP_ARGS , &bh, &bd
+#else
+#define TX_MAT_BUMP_PARAMS
+#define TX_MAT_BUMP_ARGS
+#endif
+static __attribute__((noinline)) void material_gather_packet(__global const Material* materials, const int* mat,
+                                                             pfloat3* kd, pfloat3* ks, pfloat* shin, int* dtex,
+                                                             int* btex TX_MAT_BUMP_PARAMS)
+{
+#define TX_M(j, f) materials[mat[j]].f
+    *kd = pf3((pfloat)PGATHER_A(TX_M, diffuse[0]), (pfloat)PGATHER_A(TX_M, diffuse[1]), (pfloat)PGATHER_A(TX_M, diffuse[2]));
+    *ks = pf3((pfloat)PGATHER_A(TX_M, specular[0]), (pfloat)PGATHER_A(TX_M, specular[1]),
+              (pfloat)PGATHER_A(TX_M, specular[2]));
+    *shin = (pfloat)PGATHER_A(TX_M, shininess);
+#if TX_BUMP
+    *bh = (pfloat)PGATHER_A(TX_M, bump_height); *bd = (pfloat)PGATHER_A(TX_M, bump_delta);
+#endif
+#undef TX_M
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) { dtex[j] = materials[mat[j]].diffuse_tex; btex[j] = materials[mat[j]].bump_tex; }
+}
+
+/* core/common.h's finite3, lane by lane. */
+#define TX_FINITE3_P(v) ((fabs((v).x) <= FLT_MAX) & (fabs((v).y) <= FLT_MAX) & (fabs((v).z) <= FLT_MAX))
+
+/* surface_eval(org, dir, hit j, pre + j, ...) into s[j] for the lanes j of `lanes` (each with
+ * its packet geometry in gl: lanes on a sphere, quad or triangle), and v[j] = -normalize3(dir)
+ * where the record is valid. hk, pidx: the lanes' hit kinds and indices. */
+static inline __attribute__((always_inline)) void surface_packet(const PacketRay* pr, const int* lanes,
+                                                                 const int* hk, const uint* pidx, const GeomLanes* gl,
+                                                                 TX_GEOM_PARAMS, TX_SURFACE_PARAMS, Surface* s,
+                                                                 float3* vout)
+{
+    /* the geometry and the material, one lane each */
+    int mat[TX_PACKET];
+    uint k0 = packet_first_lane(lanes);
+    #pragma nounroll
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        uint i = pidx[lanes[j] ? j : k0];
+        int kind = hk[lanes[j] ? j : k0];
+        uint mi = 0u;
+#if TX_QUADS
+        if (kind == (int)PRIM_QUAD) mi = quad_shade[i].material;
+#endif
+#if TX_SPHERES
+        if (kind == (int)PRIM_SPHERE) mi = spheres[i].material;
+#endif
+        if (kind == (int)PRIM_TRIANGLE) mi = tri_shade[i].material;
+        mat[j] = (int)mi;
+    }
+#define TX_GL(k) PLOAD(gl->f[TX_GL_##k])
+    pfloat3 p = pf3(TX_GL(PX), TX_GL(PY), TX_GL(PZ)), ng0 = pf3(TX_GL(NX), TX_GL(NY), TX_GL(NZ));
+    pfloat u = TX_GL(U), v = TX_GL(V);
+    pfloat3 perr = pf3(TX_GL(EX), TX_GL(EY), TX_GL(EZ));
+#if TX_BUMP
+    pfloat3 dpdu = pf3(TX_GL(UX), TX_GL(UY), TX_GL(UZ)), dpdv = pf3(TX_GL(VX), TX_GL(VY), TX_GL(VZ));
+#endif
+#undef TX_GL
+    int one = 1;
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) one &= !lanes[j] || mat[j] == mat[k0];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) if (!lanes[j]) mat[j] = mat[k0];
+    pfloat3 kd, ks;
+    pfloat shin;
+    int dtex[TX_PACKET], btex[TX_PACKET];
+#if TX_BUMP
+    pfloat bh, bd;
+#endif
+    if (one) {
+        __global const Material* m = materials + mat[k0];
+        kd = pf3_splat(vload3(0, m->diffuse)); ks = pf3_splat(vload3(0, m->specular)); shin = (pfloat)(m->shininess);
+        for (uint j = 0; j < (uint)TX_PACKET; ++j) { dtex[j] = m->diffuse_tex; btex[j] = m->bump_tex; }
+#if TX_BUMP
+        bh = (pfloat)(m->bump_height); bd = (pfloat)(m->bump_delta);
+#endif
+    } else {
+        material_gather_packet(materials, mat, &kd, &ks, &shin, dtex, btex TX_MAT_BUMP_ARGS);
+    }
+    pfloat3 dir = pf3(PLOAD(pr->dir[0]), PLOAD(pr->dir[1]), PLOAD(pr->dir[2]));
+    /* the shading normal (surface_normals): the outward normal, bumped */
+    pfloat3 n_out = ng0;
+#if TX_BUMP
+    {
+        int mb[TX_PACKET], anyb = 0;
+        for (uint j = 0; j < (uint)TX_PACKET; ++j) { mb[j] = lanes[j] && btex[j] >= 0; anyb |= mb[j]; }
+        if (anyb) {
+            for (uint j = 0; j < (uint)TX_PACKET; ++j) if (!mb[j]) btex[j] = btex[packet_first_lane(mb)];
+            TexPacket bt = tex_packet(textures, btex, mb);
+            pfloat gu, gv;
+            bump_gradient_packet(texels, &bt, u, v, bh, bd, mb, &gu, &gv);
+            pint has = (pint)(TX_LANES(mb)) != 0;
+            n_out = pf3_sel(has, bump_normal_packet(n_out, dpdu, dpdv, gu, gv), n_out);
+        }
+    }
+#endif
+    pint back = pf3_dot(ng0, dir) > 0.0f;                    /* face the incoming ray */
+    pfloat side = PSEL_F(back, (pfloat)(-1.0f), (pfloat)(1.0f));
+    pfloat3 ng = pf3_scale(side, ng0), ns = pf3_scale(side, n_out);
+    pfloat3 wo = pf3_normalize3(dir);
+    wo = pf3(-wo.x, -wo.y, -wo.z);
+#if TX_BUMP
+    pfloat b1 = (pfloat)(TX_NORMAL_MIN_COS), cw = pf3_dot(ng, wo);     /* shading_normal_facing */
+    turn_toward_packet(&ns, &ng, &b1);
+    pfloat b2 = PMIN((pfloat)(TX_NORMAL_MIN_COS), PMAX(cw, (pfloat)(0.0f)));
+    turn_toward_packet(&ns, &wo, &b2);
+#endif
+    /* the material (surface_material): kd through the diffuse texture, whose taps and weights
+     * are computed here and blended lane by lane below (as texture_bilinear_level's float4
+     * arithmetic: the same floats), straight into the record */
+    int mt[TX_PACKET], anyt = 0, ti00[TX_PACKET], ti10[TX_PACKET], ti01[TX_PACKET], ti11[TX_PACKET];
+    float tax[TX_PACKET], tay[TX_PACKET];
+    if (TX_TEXTURES) {
+        for (uint j = 0; j < (uint)TX_PACKET; ++j) { mt[j] = lanes[j] && dtex[j] >= 0; anyt |= mt[j]; }
+        if (anyt) {
+            for (uint j = 0; j < (uint)TX_PACKET; ++j) if (!mt[j]) dtex[j] = dtex[packet_first_lane(mt)];
+            TexPacket dt = tex_packet(textures, dtex, mt);
+            pfloat su = dt.m0x * u + dt.m0y * v + dt.m1x, sv = dt.m0z * u + dt.m0w * v + dt.m1y;   /* uv_transform */
+            pint i00, i10, i01, i11;
+            pfloat ax, ay;
+            bilinear_taps_packet(&dt, &su, &sv, mt, &i00, &i10, &i01, &i11, &ax, &ay);
+            PSTORE(i00, ti00); PSTORE(i10, ti10); PSTORE(i01, ti01); PSTORE(i11, ti11);
+            PSTORE(ax, tax); PSTORE(ay, tay);
+        }
+    }
+    /* the record (surface_write) */
+    pint valid = TX_FINITE3_P(p) & TX_FINITE3_P(ng) & TX_FINITE3_P(ns) & TX_FINITE3_P(ks);
+    pfloat off = pf3_dot(pf3_abs(ng), perr);                   /* dot3(abs3(ng), perr) */
+    float o[20][TX_PACKET];
+    int vl[TX_PACKET];
+    PSTORE(valid, vl);
+    PSTORE(p.x, o[0]); PSTORE(p.y, o[1]); PSTORE(p.z, o[2]); PSTORE(off, o[3]);
+    PSTORE(ng.x, o[4]); PSTORE(ng.y, o[5]); PSTORE(ng.z, o[6]);
+    PSTORE(ns.x, o[7]); PSTORE(ns.y, o[8]); PSTORE(ns.z, o[9]); PSTORE(shin, o[10]);
+    PSTORE(kd.x, o[11]); PSTORE(kd.y, o[12]); PSTORE(kd.z, o[13]);
+    PSTORE(ks.x, o[14]); PSTORE(ks.y, o[15]); PSTORE(ks.z, o[16]);
+    PSTORE(wo.x, o[17]); PSTORE(wo.y, o[18]); PSTORE(wo.z, o[19]);
+    #pragma nounroll
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        if (!lanes[j]) continue;
+        Surface* r = s + j;
+        float3 kdj = (float3)(o[11][j], o[12][j], o[13][j]);
+        if (TX_TEXTURES && anyt && mt[j]) {
+            float4 t00 = vload_half4((uint)ti00[j], texels), t10 = vload_half4((uint)ti10[j], texels);
+            float4 t01 = vload_half4((uint)ti01[j], texels), t11 = vload_half4((uint)ti11[j], texels);
+            float ax = tax[j], ay = tay[j];
+            kdj *= ((t00 * (1.0f - ax) + t10 * ax) * (1.0f - ay) + (t01 * (1.0f - ax) + t11 * ax) * ay).xyz;
+        }
+        if (!vl[j] || !finite3(kdj)) { r->valid = 0u; continue; }
+        vstore3((float3)(o[0][j], o[1][j], o[2][j]), 0, r->p);
+        r->offset = o[3][j];
+        vstore3((float3)(o[4][j], o[5][j], o[6][j]), 0, r->ng);
+        r->valid = 1u;
+        vstore3((float3)(o[7][j], o[8][j], o[9][j]), 0, r->ns);
+        vstore3((float3)(0.0f), 0, r->lift);
+        r->shininess = o[10][j];
+        vstore3(kdj, 0, r->kd);
+        vstore3((float3)(o[14][j], o[15][j], o[16][j]), 0, r->ks);
+        vout[j] = (float3)(o[17][j], o[18][j], o[19][j]);
+    }
+}
+
+#endif
+#endif
