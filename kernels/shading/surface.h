@@ -16,6 +16,9 @@
  * type-checks), `#if TX_X` where it calls a header that only such programs include
  * (texray.cl, geometry/dispatch.h).
  *
+ * The fused kernel's packets evaluate their sphere, quad and triangle hits with the same
+ * arithmetic as vectors instead, where a program's surfaces allow (shading/surface_packet.h).
+ *
  * The steps are `static inline`: each has one call site, and a function of internal
  * linkage called once is inlined whatever its size, so the five steps compile to the
  * one function surface_eval was. As plain `inline` (external linkage) PoCL left them

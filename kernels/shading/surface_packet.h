@@ -10,12 +10,13 @@
  * Every lane computes surface_eval's arithmetic in the same order with the same
  * contraction (off here, as after core/accurate.h; dot and cross as core/common.h
  * compiles them: accel/packet_vec.h), so the record is surface_eval's bit for bit
- * (tests: the images of every scene with packets against those without).
+ * (tests/render/test_surface_packet.py: images with packets against those without).
  *
  * Compiled in (TX_SURFACE_PACKET) for the programs whose surfaces need nothing else:
  * packets, bilinear textures alone, no projections, vertex normals, labels, specular,
- * shininess or normal maps, AOVs or instances. A hit without the packet's geometry
- * (a cylinder, a displaced shape) is still evaluated lane by lane. */
+ * shininess or normal maps, AOVs or instances, and some sphere, quad or triangle packet
+ * geometry. A hit without the packet's geometry (a cylinder, a displaced shape) is still
+ * evaluated lane by lane. */
 #ifndef TEXRAY_SURFACE_PACKET_H
 #define TEXRAY_SURFACE_PACKET_H
 #include "shading/surface.h"
@@ -23,15 +24,14 @@
 
 #if TX_PACKET && !TX_INSTANCES && !TX_AOVS && !TX_PROJECTIONS && !TX_VERTEX_NORMALS && !TX_LABELS \
     && !TX_SPECULAR_MAPS && !TX_SHININESS_MAPS && !TX_NORMAL_MAPS && !TX_FILTER_NEAREST && !TX_FILTER_TRILINEAR \
-    && !TX_FILTER_ANISOTROPIC
+    && !TX_FILTER_ANISOTROPIC && (TX_SPHERES || TX_QUADS || TX_TRI_GEOM_PACKET)
 #define TX_SURFACE_PACKET 1
 #else
 #define TX_SURFACE_PACKET 0
 #endif
 /* Whether every kind of hit the program can meet has the packet's geometry (no cylinders,
  * displaced shapes or instances), so that the fused kernel needs no scalar surface_eval. */
-#if TX_SURFACE_PACKET && !TX_CYLINDERS && !TX_DISPLACEMENT && (!TX_TRIANGLES || TX_TRI_GEOM_PACKET) \
-    && (TX_SPHERES || TX_QUADS || TX_TRIANGLES)
+#if TX_SURFACE_PACKET && !TX_CYLINDERS && !TX_DISPLACEMENT && (!TX_TRIANGLES || TX_TRI_GEOM_PACKET)
 #define TX_SURFACE_PACKET_ONLY 1
 #else
 #define TX_SURFACE_PACKET_ONLY 0
@@ -306,9 +306,9 @@ static __attribute__((noinline)) void material_gather_packet(__global const Mate
 /* core/common.h's finite3, lane by lane. */
 #define TX_FINITE3_P(v) ((fabs((v).x) <= FLT_MAX) & (fabs((v).y) <= FLT_MAX) & (fabs((v).z) <= FLT_MAX))
 
-/* surface_eval(org, dir, hit j, pre + j, ...) into s[j] for the lanes j of `lanes` (each with
- * its packet geometry in gl: lanes on a sphere, quad or triangle), and v[j] = -normalize3(dir)
- * where the record is valid. hk, pidx: the lanes' hit kinds and indices. */
+/* surface_eval of lane j's ray and hit into s[j] for the lanes j of `lanes` (hits on a sphere,
+ * quad or triangle, whose geometry the packet left in gl), and vout[j] = -normalize3(dir)
+ * where the record is valid. hk, pidx: the lanes' hit kinds and primitive indices. */
 static inline __attribute__((always_inline)) void surface_packet(const PacketRay* pr, const int* lanes,
                                                                  const int* hk, const uint* pidx, const GeomLanes* gl,
                                                                  TX_GEOM_PARAMS, TX_SURFACE_PARAMS, Surface* s,
@@ -328,7 +328,9 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
 #if TX_SPHERES
         if (kind == (int)PRIM_SPHERE) mi = spheres[i].material;
 #endif
+#if TX_TRIANGLES
         if (kind == (int)PRIM_TRIANGLE) mi = tri_shade[i].material;
+#endif
         mat[j] = (int)mi;
     }
 #define TX_GL(k) PLOAD(gl->f[TX_GL_##k])
