@@ -13,8 +13,8 @@
  * (tests/render/test_surface_packet.py: images with packets against those without).
  *
  * Compiled in (TX_SURFACE_PACKET) for the programs whose surfaces need nothing else:
- * packets, bilinear textures alone, no projections, vertex normals, labels, specular,
- * shininess or normal maps, AOVs or instances, and some sphere, quad or triangle packet
+ * packets, bilinear textures alone, no projections, labels, specular, shininess or normal
+ * maps, AOVs or instances, and some sphere, quad or triangle packet
  * geometry. A hit without the packet's geometry (a cylinder, a displaced shape) is still
  * evaluated lane by lane. */
 #ifndef TEXRAY_SURFACE_PACKET_H
@@ -22,7 +22,7 @@
 #include "shading/surface.h"
 #include "accel/packet.h"
 
-#if TX_PACKET && !TX_INSTANCES && !TX_AOVS && !TX_PROJECTIONS && !TX_VERTEX_NORMALS && !TX_LABELS \
+#if TX_PACKET && !TX_INSTANCES && !TX_AOVS && !TX_PROJECTIONS && !TX_LABELS \
     && !TX_SPECULAR_MAPS && !TX_SHININESS_MAPS && !TX_NORMAL_MAPS && !TX_FILTER_NEAREST && !TX_FILTER_TRILINEAR \
     && !TX_FILTER_ANISOTROPIC && (TX_SPHERES || TX_QUADS || TX_TRI_GEOM_PACKET)
 #define TX_SURFACE_PACKET 1
@@ -68,27 +68,27 @@ static __attribute__((noinline)) void tex_gather_packet(__global const TextureIn
 #undef TX_TI
 }
 
-/* The textures tex[j] of the lanes `ml` (others read the first such lane's): one read where
- * they all use one texture (a wall, a floor: nearly every packet). */
-static inline __attribute__((always_inline)) TexPacket tex_packet(__global const TextureInfo* textures,
-                                                                  const int* tex, const int* ml)
+/* The textures tex[j] of the lanes `ml` (others read the first such lane's) into *t: one read
+ * where they all use one texture (a wall, a floor: nearly every packet). (An out-parameter,
+ * not a returned TexPacket: inlined, a struct's return slot left llvm.experimental.noalias.
+ * scope.decl calls that Oclgrind 21.10 cannot run, as shading/surface.h says.) */
+static inline __attribute__((always_inline)) void tex_packet(__global const TextureInfo* textures, const int* tex,
+                                                             const int* ml, TexPacket* t)
 {
-    TexPacket t;
     uint k0 = packet_first_lane(ml);
     int one = 1;
     for (uint j = 0; j < (uint)TX_PACKET; ++j) one &= !ml[j] || tex[j] == tex[k0];
     if (one) {
         __global const TextureInfo* ti = textures + tex[k0];
-        t.off = (pint)((int)ti->offset); t.w = (pint)((int)ti->width); t.h = (pint)((int)ti->height);
-        t.mode = (pint)((int)ti->wrap);
-        t.m0x = (pfloat)(ti->m0[0]); t.m0y = (pfloat)(ti->m0[1]); t.m0z = (pfloat)(ti->m0[2]);
-        t.m0w = (pfloat)(ti->m0[3]); t.m1x = (pfloat)(ti->m1[0]); t.m1y = (pfloat)(ti->m1[1]);
-        return t;
+        t->off = (pint)((int)ti->offset); t->w = (pint)((int)ti->width); t->h = (pint)((int)ti->height);
+        t->mode = (pint)((int)ti->wrap);
+        t->m0x = (pfloat)(ti->m0[0]); t->m0y = (pfloat)(ti->m0[1]); t->m0z = (pfloat)(ti->m0[2]);
+        t->m0w = (pfloat)(ti->m0[3]); t->m1x = (pfloat)(ti->m1[0]); t->m1y = (pfloat)(ti->m1[1]);
+        return;
     }
     int ti_[TX_PACKET];
     for (uint j = 0; j < (uint)TX_PACKET; ++j) ti_[j] = ml[j] ? tex[j] : tex[k0];
-    tex_gather_packet(textures, ti_, &t);
-    return t;
+    tex_gather_packet(textures, ti_, t);
 }
 
 /* texture/wrap.h's wrap_reduce, lane by lane. */
@@ -243,6 +243,9 @@ static inline __attribute__((always_inline)) void bump_gradient_packet(__global 
     *gv = height * (gx * t->m0y + gy * t->m0w);
 }
 
+#endif
+
+#if TX_BUMP || TX_VERTEX_NORMALS
 /* core/frame.h's any_tangent, lane by lane. */
 static inline __attribute__((always_inline)) pfloat3 any_tangent_packet(pfloat3 n)
 {
@@ -251,6 +254,7 @@ static inline __attribute__((always_inline)) pfloat3 any_tangent_packet(pfloat3 
     return pf3_normalize3(a);
 }
 
+#if TX_BUMP
 /* core/frame.h's bump_normal, lane by lane. */
 static inline __attribute__((always_inline)) pfloat3 bump_normal_packet(pfloat3 n, pfloat3 dpdu, pfloat3 dpdv,
                                                                        pfloat gu, pfloat gv)
@@ -262,6 +266,7 @@ static inline __attribute__((always_inline)) pfloat3 bump_normal_packet(pfloat3 
     pint keep = ((gu == 0.0f) & (gv == 0.0f)) | !(fabs(j) > 0.0f);
     return pf3_sel(keep, n, pf3_unit_or(r, n));
 }
+#endif
 
 /* shading/bump.h's bump_turn_toward, lane by lane (bound per lane): *ap turned toward *bp. Out
  * of line: called twice, rarely with work to do. */
@@ -308,9 +313,11 @@ static __attribute__((noinline)) void material_gather_packet(__global const Mate
 
 /* surface_eval of lane j's ray and hit into s[j] for the lanes j of `lanes` (hits on a sphere,
  * quad or triangle, whose geometry the packet left in gl), and vout[j] = -normalize3(dir)
- * where the record is valid. hk, pidx: the lanes' hit kinds and primitive indices. */
+ * where the record is valid. hk, pidx, hb1, hb2: the lanes' hit kinds, primitive indices and
+ * barycentrics. */
 static inline __attribute__((always_inline)) void surface_packet(const PacketRay* pr, const int* lanes,
-                                                                 const int* hk, const uint* pidx, const GeomLanes* gl,
+                                                                 const int* hk, const uint* pidx, const float* hb1,
+                                                                 const float* hb2, const GeomLanes* gl,
                                                                  TX_GEOM_PARAMS, TX_SURFACE_PARAMS, Surface* s,
                                                                  float3* vout)
 {
@@ -361,15 +368,39 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
         material_gather_packet(materials, mat, &kd, &ks, &shin, dtex, btex TX_MAT_BUMP_ARGS);
     }
     pfloat3 dir = pf3(PLOAD(pr->dir[0]), PLOAD(pr->dir[1]), PLOAD(pr->dir[2]));
-    /* the shading normal (surface_normals): the outward normal, bumped */
+    /* the shading normal (surface_normals): the outward normal (the vertex normals', where a
+     * triangle has them: surface_geometry), bumped */
     pfloat3 n_out = ng0;
+#if TX_VERTEX_NORMALS
+    int vn[TX_PACKET], anyn = 0;                 /* lanes on a triangle with vertex normals */
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        vn[j] = lanes[j] && hk[j] == (int)PRIM_TRIANGLE && (tri_shade[pidx[j]].flags & TRI_HAS_NORMALS);
+        anyn |= vn[j];
+    }
+    pint use_vn = (pint)(0), lift_vn = (pint)(0);
+    if (anyn) {
+        uint kn = packet_first_lane(vn);
+        pfloat b1 = PLOAD(hb1), b2 = PLOAD(hb2);
+        pfloat b0 = 1.0f - b1 - b2;
+#define TX_VN(j, c) normals[3u * tri_shade[pidx[vn[j] ? j : kn]].v[c / 3] + c % 3]
+        pfloat3 n0 = pf3((pfloat)PGATHER_A(TX_VN, 0), (pfloat)PGATHER_A(TX_VN, 1), (pfloat)PGATHER_A(TX_VN, 2));
+        pfloat3 n1 = pf3((pfloat)PGATHER_A(TX_VN, 3), (pfloat)PGATHER_A(TX_VN, 4), (pfloat)PGATHER_A(TX_VN, 5));
+        pfloat3 n2 = pf3((pfloat)PGATHER_A(TX_VN, 6), (pfloat)PGATHER_A(TX_VN, 7), (pfloat)PGATHER_A(TX_VN, 8));
+#undef TX_VN
+        pfloat3 raw = pf3_add(pf3_add(pf3_scale(b0, n0), pf3_scale(b1, n1)), pf3_scale(b2, n2));
+        use_vn = ((pint)(TX_LANES(vn)) != 0) & (pf3_dot(raw, raw) > 0.0f) & TX_FINITE3_P(raw);
+        lift_vn = use_vn & (pf3_dot(raw, dir) < 0.0f);        /* seen from the normals' side */
+        n_out = pf3_sel(use_vn, pf3_normalize3(raw), n_out);
+    }
+#endif
 #if TX_BUMP
     {
         int mb[TX_PACKET], anyb = 0;
         for (uint j = 0; j < (uint)TX_PACKET; ++j) { mb[j] = lanes[j] && btex[j] >= 0; anyb |= mb[j]; }
         if (anyb) {
             for (uint j = 0; j < (uint)TX_PACKET; ++j) if (!mb[j]) btex[j] = btex[packet_first_lane(mb)];
-            TexPacket bt = tex_packet(textures, btex, mb);
+            TexPacket bt;
+            tex_packet(textures, btex, mb, &bt);
             pfloat gu, gv;
             bump_gradient_packet(texels, &bt, u, v, bh, bd, mb, &gu, &gv);
             pint has = (pint)(TX_LANES(mb)) != 0;
@@ -382,11 +413,11 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
     pfloat3 ng = pf3_scale(side, ng0), ns = pf3_scale(side, n_out);
     pfloat3 wo = pf3_normalize3(dir);
     wo = pf3(-wo.x, -wo.y, -wo.z);
-#if TX_BUMP
-    pfloat b1 = (pfloat)(TX_NORMAL_MIN_COS), cw = pf3_dot(ng, wo);     /* shading_normal_facing */
-    turn_toward_packet(&ns, &ng, &b1);
-    pfloat b2 = PMIN((pfloat)(TX_NORMAL_MIN_COS), PMAX(cw, (pfloat)(0.0f)));
-    turn_toward_packet(&ns, &wo, &b2);
+#if TX_BUMP || TX_VERTEX_NORMALS
+    pfloat bound1 = (pfloat)(TX_NORMAL_MIN_COS), cw = pf3_dot(ng, wo);     /* shading_normal_facing */
+    turn_toward_packet(&ns, &ng, &bound1);
+    pfloat bound2 = PMIN((pfloat)(TX_NORMAL_MIN_COS), PMAX(cw, (pfloat)(0.0f)));
+    turn_toward_packet(&ns, &wo, &bound2);
 #endif
     /* the material (surface_material): kd through the diffuse texture, whose taps and weights
      * are computed here and blended lane by lane below (as texture_bilinear_level's float4
@@ -397,7 +428,8 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
         for (uint j = 0; j < (uint)TX_PACKET; ++j) { mt[j] = lanes[j] && dtex[j] >= 0; anyt |= mt[j]; }
         if (anyt) {
             for (uint j = 0; j < (uint)TX_PACKET; ++j) if (!mt[j]) dtex[j] = dtex[packet_first_lane(mt)];
-            TexPacket dt = tex_packet(textures, dtex, mt);
+            TexPacket dt;
+            tex_packet(textures, dtex, mt, &dt);
             pfloat su = dt.m0x * u + dt.m0y * v + dt.m1x, sv = dt.m0z * u + dt.m0w * v + dt.m1y;   /* uv_transform */
             pint i00, i10, i01, i11;
             pfloat ax, ay;
@@ -410,8 +442,11 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
     pint valid = TX_FINITE3_P(p) & TX_FINITE3_P(ng) & TX_FINITE3_P(ns) & TX_FINITE3_P(ks);
     pfloat off = pf3_dot(pf3_abs(ng), perr);                   /* dot3(abs3(ng), perr) */
     float o[20][TX_PACKET];
-    int vl[TX_PACKET];
+    int vl[TX_PACKET], ll[TX_PACKET];
     PSTORE(valid, vl);
+#if TX_VERTEX_NORMALS
+    PSTORE(lift_vn, ll);
+#endif
     PSTORE(p.x, o[0]); PSTORE(p.y, o[1]); PSTORE(p.z, o[2]); PSTORE(off, o[3]);
     PSTORE(ng.x, o[4]); PSTORE(ng.y, o[5]); PSTORE(ng.z, o[6]);
     PSTORE(ns.x, o[7]); PSTORE(ns.y, o[8]); PSTORE(ns.z, o[9]); PSTORE(shin, o[10]);
@@ -435,7 +470,19 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
         vstore3((float3)(o[4][j], o[5][j], o[6][j]), 0, r->ng);
         r->valid = 1u;
         vstore3((float3)(o[7][j], o[8][j], o[9][j]), 0, r->ns);
-        vstore3((float3)(0.0f), 0, r->lift);
+        float3 lift = (float3)(0.0f);
+#if TX_VERTEX_NORMALS
+        if (ll[j]) {                             /* surface_geometry's shadow-ray lift */
+            uint idx = pidx[j];
+            __global const TriShade* ts = tri_shade + idx;
+            float b0 = 1.0f - hb1[j] - hb2[j];
+            lift = terminator_lift((float3)(o[0][j], o[1][j], o[2][j]), tri_p0(tris + idx), tri_p1(tris + idx),
+                                   tri_p2(tris + idx), normalize3(vload3(ts->v[0], normals)),
+                                   normalize3(vload3(ts->v[1], normals)), normalize3(vload3(ts->v[2], normals)),
+                                   b0, hb1[j], hb2[j]);
+        }
+#endif
+        vstore3(lift, 0, r->lift);
         r->shininess = o[10][j];
         vstore3(kdj, 0, r->kd);
         vstore3((float3)(o[14][j], o[15][j], o[16][j]), 0, r->ks);

@@ -211,7 +211,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
         if (any(pre_lanes)) {
             int hkl[TX_CHUNK];
             PSTORE(hit_kind, hkl);
-            surface_packet(&pr, has_pre, hkl, pidx, &glanes, TX_GEOM_ARGS, TX_SURFACE_ARGS, s, v);
+            surface_packet(&pr, has_pre, hkl, pidx, hb1, hb2, &glanes, TX_GEOM_ARGS, TX_SURFACE_ARGS, s, v);
         }
 #endif
 #undef TX_GEOM_AOS

@@ -38,7 +38,7 @@ def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
                    "TX_AVX512": int(which.endswith("avx512"))}
     if which.startswith("surface"):    # the packet surface (shading/surface_packet.h): every kind, bump
         f = Features(textures=True, specular=True, bump=True, filter_bilinear=True, max_lights=2, stack_size=32,
-                     quads=True, spheres=True, triangles=True, cylinders=True)
+                     quads=True, spheres=True, triangles=True, cylinders=True, vertex_normals=which == "surface16")
         options = {**compile_options(f), "TX_PACKET": int(which.removeprefix("surface"))}
     prg = any_rt.program(options, extra_options=("-Werror",))
     names = set(prg.get_info(cl.program_info.KERNEL_NAMES).split(";"))

@@ -4,7 +4,7 @@ image of a scene with packets equals the image without (TEXRAY_PACKET=0), at 8 a
 with AVX-512 too, through every path the packet code takes: packets whose lanes hit several
 objects, materials and textures (the gathers), each wrap mode, UV transforms, bump mapping with
 each kind of step (the exact gradient, one texel, a fixed step), materials without texture,
-mirrored normals, misses and grazing hits; and a program whose every hit is a packet's (no
+mirrored normals, vertex normals with the terminator's lift, misses and grazing hits; and a program whose every hit is a packet's (no
 scalar surface code in its kernel) next to one with a cylinder (the other lanes stay scalar)."""
 import numpy as np
 import pytest
@@ -13,7 +13,7 @@ import texray as tx
 from texray.device import runtime
 from texray.device.features import cpu_avx512
 
-from scenes_for_tests import quad
+from scenes_for_tests import box, quad
 
 
 def _texture(seed, wrap, size=(24, 20), channels=3, **kw):
@@ -47,6 +47,9 @@ def _scene(cylinder=False, triangles=True):
         p, f, uv = quad(0.0, 0.6, uv_repeat=2.0)
         p = p @ np.array([[1, 0, 0], [0, 0, 1], [0, 1, 0]], float) + (0.2, 1.1, 0.0)   # upright, facing +z
         s.add(tx.Mesh(p, f, uvs=uv, material=mats[0], name="panel"))
+        # vertex normals (smooth shading, the terminator's shadow-ray lift) on a coarse box
+        bp, bf = box((0.0, 0.35, 1.1), (0.35, 0.35, 0.3))
+        s.add(tx.Mesh(bp, bf, normals=bp - bp.mean(axis=0), uvs=bp[:, :2] * 2.0, material=mats[1], name="smooth"))
     if cylinder:
         s.add(tx.Cylinder(0.2, (0.0, 1.2), origin=(1.9, 0, -0.5), axis_z=(0, 1, 0), material=mats[2], name="post"))
     return s
