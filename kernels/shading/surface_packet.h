@@ -59,13 +59,17 @@ typedef struct {
 static __attribute__((noinline)) void tex_gather_packet(__global const TextureInfo* textures, const int* ti_,
                                                         TexPacket* t)
 {
-#define TX_TI(j, f) textures[ti_[j]].f
-    t->off = as_pint((puint)PGATHER_A(TX_TI, offset)); t->w = as_pint((puint)PGATHER_A(TX_TI, width));
-    t->h = as_pint((puint)PGATHER_A(TX_TI, height)); t->mode = as_pint((puint)PGATHER_A(TX_TI, wrap));
-    t->m0x = (pfloat)PGATHER_A(TX_TI, m0[0]); t->m0y = (pfloat)PGATHER_A(TX_TI, m0[1]);
-    t->m0z = (pfloat)PGATHER_A(TX_TI, m0[2]); t->m0w = (pfloat)PGATHER_A(TX_TI, m0[3]);
-    t->m1x = (pfloat)PGATHER_A(TX_TI, m1[0]); t->m1y = (pfloat)PGATHER_A(TX_TI, m1[1]);
-#undef TX_TI
+    int a[4][TX_PACKET];
+    float b[6][TX_PACKET];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        __global const TextureInfo* ti = textures + ti_[j];
+        a[0][j] = (int)ti->offset; a[1][j] = (int)ti->width; a[2][j] = (int)ti->height; a[3][j] = (int)ti->wrap;
+        for (int k = 0; k < 4; ++k) b[k][j] = ti->m0[k];
+        b[4][j] = ti->m1[0]; b[5][j] = ti->m1[1];
+    }
+    t->off = PLOAD(a[0]); t->w = PLOAD(a[1]); t->h = PLOAD(a[2]); t->mode = PLOAD(a[3]);
+    t->m0x = PLOAD(b[0]); t->m0y = PLOAD(b[1]); t->m0z = PLOAD(b[2]); t->m0w = PLOAD(b[3]);
+    t->m1x = PLOAD(b[4]); t->m1y = PLOAD(b[5]);
 }
 
 /* The textures tex[j] of the lanes `ml` (others read the first such lane's) into *t: one read
@@ -296,15 +300,18 @@ static __attribute__((noinline)) void material_gather_packet(__global const Mate
                                                              pfloat3* kd, pfloat3* ks, pfloat* shin, int* dtex,
                                                              int* btex TX_MAT_BUMP_PARAMS)
 {
-#define TX_M(j, f) materials[mat[j]].f
-    *kd = pf3((pfloat)PGATHER_A(TX_M, diffuse[0]), (pfloat)PGATHER_A(TX_M, diffuse[1]), (pfloat)PGATHER_A(TX_M, diffuse[2]));
-    *ks = pf3((pfloat)PGATHER_A(TX_M, specular[0]), (pfloat)PGATHER_A(TX_M, specular[1]),
-              (pfloat)PGATHER_A(TX_M, specular[2]));
-    *shin = (pfloat)PGATHER_A(TX_M, shininess);
+    float c[9][TX_PACKET];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        __global const Material* m = materials + mat[j];
+        for (int k = 0; k < 3; ++k) { c[k][j] = m->diffuse[k]; c[3 + k][j] = m->specular[k]; }
+        c[6][j] = m->shininess; c[7][j] = m->bump_height; c[8][j] = m->bump_delta;
+    }
+    *kd = pf3(PLOAD(c[0]), PLOAD(c[1]), PLOAD(c[2]));
+    *ks = pf3(PLOAD(c[3]), PLOAD(c[4]), PLOAD(c[5]));
+    *shin = PLOAD(c[6]);
 #if TX_BUMP
-    *bh = (pfloat)PGATHER_A(TX_M, bump_height); *bd = (pfloat)PGATHER_A(TX_M, bump_delta);
+    *bh = PLOAD(c[7]); *bd = PLOAD(c[8]);
 #endif
-#undef TX_M
     for (uint j = 0; j < (uint)TX_PACKET; ++j) { dtex[j] = materials[mat[j]].diffuse_tex; btex[j] = materials[mat[j]].bump_tex; }
 }
 
@@ -382,11 +389,14 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
         uint kn = packet_first_lane(vn);
         pfloat b1 = PLOAD(hb1), b2 = PLOAD(hb2);
         pfloat b0 = 1.0f - b1 - b2;
-#define TX_VN(j, c) normals[3u * tri_shade[pidx[vn[j] ? j : kn]].v[c / 3] + c % 3]
-        pfloat3 n0 = pf3((pfloat)PGATHER_A(TX_VN, 0), (pfloat)PGATHER_A(TX_VN, 1), (pfloat)PGATHER_A(TX_VN, 2));
-        pfloat3 n1 = pf3((pfloat)PGATHER_A(TX_VN, 3), (pfloat)PGATHER_A(TX_VN, 4), (pfloat)PGATHER_A(TX_VN, 5));
-        pfloat3 n2 = pf3((pfloat)PGATHER_A(TX_VN, 6), (pfloat)PGATHER_A(TX_VN, 7), (pfloat)PGATHER_A(TX_VN, 8));
-#undef TX_VN
+        float nl[9][TX_PACKET];                  /* the three vertex normals, lane by lane */
+        for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+            __global const TriShade* ts = tri_shade + pidx[vn[j] ? j : kn];
+            for (int c = 0; c < 9; ++c) nl[c][j] = normals[3u * ts->v[c / 3] + (uint)(c % 3)];
+        }
+        pfloat3 n0 = pf3(PLOAD(nl[0]), PLOAD(nl[1]), PLOAD(nl[2]));
+        pfloat3 n1 = pf3(PLOAD(nl[3]), PLOAD(nl[4]), PLOAD(nl[5]));
+        pfloat3 n2 = pf3(PLOAD(nl[6]), PLOAD(nl[7]), PLOAD(nl[8]));
         pfloat3 raw = pf3_add(pf3_add(pf3_scale(b0, n0), pf3_scale(b1, n1)), pf3_scale(b2, n2));
         use_vn = ((pint)(TX_LANES(vn)) != 0) & (pf3_dot(raw, raw) > 0.0f) & TX_FINITE3_P(raw);
         lift_vn = use_vn & (pf3_dot(raw, dir) < 0.0f);        /* seen from the normals' side */
