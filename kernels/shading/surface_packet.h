@@ -16,7 +16,9 @@
  * packets, bilinear textures alone, no projections, labels, specular, shininess or normal
  * maps, AOVs or instances, and some sphere, quad or triangle packet
  * geometry. A hit without the packet's geometry (a cylinder, a displaced shape) is still
- * evaluated lane by lane. */
+ * evaluated lane by lane. Not on Intel's CPU compiler, where packets are the user's choice
+ * (TEXRAY_PACKET) and which rounds vector divisions and square roots apart from scalar ones
+ * (geometry/triangle_packet.h): its surfaces stay surface_eval's. */
 #ifndef TEXRAY_SURFACE_PACKET_H
 #define TEXRAY_SURFACE_PACKET_H
 #include "shading/surface.h"
@@ -24,7 +26,7 @@
 
 #if TX_PACKET && !TX_INSTANCES && !TX_AOVS && !TX_PROJECTIONS && !TX_LABELS \
     && !TX_SPECULAR_MAPS && !TX_SHININESS_MAPS && !TX_NORMAL_MAPS && !TX_FILTER_NEAREST && !TX_FILTER_TRILINEAR \
-    && !TX_FILTER_ANISOTROPIC && (TX_SPHERES || TX_QUADS || TX_TRI_GEOM_PACKET)
+    && !TX_FILTER_ANISOTROPIC && (TX_SPHERES || TX_QUADS || TX_TRI_GEOM_PACKET) && !defined(__INTEL_LLVM_COMPILER)
 #define TX_SURFACE_PACKET 1
 #else
 #define TX_SURFACE_PACKET 0

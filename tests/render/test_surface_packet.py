@@ -77,14 +77,16 @@ def pocl():
 @pytest.mark.parametrize("kind", ["every hit a packet's", "with a cylinder", "quads and spheres"])
 def test_packet_surfaces_equal_the_scalar_records_bit_for_bit(pocl, monkeypatch, kind):
     scene = _scene(cylinder=kind == "with a cylinder", triangles=kind != "quads and spheres")
+    first = kind == "every hit a packet's"        # 8 lanes and adaptive sampling: one program each
     for spp in (1, 4):
         scalar = _render(monkeypatch, scene, 0, spp)
         assert scalar.rgb.std() > 0.05 and np.isfinite(scalar.rgb).all()
-        for packet in (8, 16):
+        for packet in (8, 16) if first else (16,):
             img = _render(monkeypatch, scene, packet, spp)
             assert np.array_equal(img.rgb, scalar.rgb), (kind, spp, packet)
-    adaptive = _render(monkeypatch, scene, 16, 8, adaptive=0.05)
-    np.testing.assert_array_equal(adaptive.rgb, _render(monkeypatch, scene, 0, 8, adaptive=0.05).rgb)
+    if first:
+        adaptive = _render(monkeypatch, scene, 16, 8, adaptive=0.05)
+        np.testing.assert_array_equal(adaptive.rgb, _render(monkeypatch, scene, 0, 8, adaptive=0.05).rgb)
 
 
 def test_packet_surfaces_with_avx512_equal_the_scalar_records(pocl, monkeypatch):
