@@ -121,6 +121,12 @@ static inline __attribute__((always_inline)) pfloat3 pf3_unit_or(pfloat3 v, pflo
     return pf3_sel((m > 0.0f) & (m <= FLT_MAX), pf3_scale(rsqrt(pf3_dot(u, u)), u), fallback);
 }
 
+/* core/common.h's finite3, lane by lane: -1 where every component of v is finite. */
+static inline __attribute__((always_inline)) pint pf3_finite(pfloat3 v)
+{
+    return (fabs(v.x) <= FLT_MAX) & (fabs(v.y) <= FLT_MAX) & (fabs(v.z) <= FLT_MAX);
+}
+
 /* core/common.h's normalize3, lane by lane: v * rsqrt(|v|^2) where |v|^2 is a normal finite
  * float; else v divided by its largest component first; v itself where that is 0 or not
  * finite. */

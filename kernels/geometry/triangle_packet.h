@@ -61,7 +61,7 @@ inline void triangle_geom_packet(__global const TriVerts* tris, __global const T
     pfloat3 p = pf3_add(pf3_add(q0, q1), q2);
     pfloat3 perr = pf3_scale((pfloat)(gamma_n(7.0f)), pf3_add(pf3_add(pf3_abs(q0), pf3_abs(q1)), pf3_abs(q2)));
     pfloat3 nc = pf3_cross(e1, e2);
-    pint fin = (fabs(nc.x) <= FLT_MAX) & (fabs(nc.y) <= FLT_MAX) & (fabs(nc.z) <= FLT_MAX);   /* finite3 */
+    pint fin = pf3_finite(nc);
     if (!all(fin | ~m)) {               /* edges beyond 2^64: the scaled edges' product */
         pfloat m1 = PMAX(PMAX(fabs(e1.x), fabs(e1.y)), fabs(e1.z)), m2 = PMAX(PMAX(fabs(e2.x), fabs(e2.y)), fabs(e2.z));
         nc = pf3_sel(fin, nc, pf3_cross(pf3(e1.x / m1, e1.y / m1, e1.z / m1), pf3(e2.x / m2, e2.y / m2, e2.z / m2)));

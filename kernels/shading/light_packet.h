@@ -46,7 +46,7 @@ inline void light_term_packet(const Surface* s, const float3* v, const float3* l
     pfloat3 p = TX_LT_S3(p), nrm = TX_LT_S3(ns), lp = TX_LT_A3(lpos);
     pfloat3 in = pf3((pfloat)PGATHER_A(TX_LT_IX, li), (pfloat)PGATHER_A(TX_LT_IY, li), (pfloat)PGATHER_A(TX_LT_IZ, li));
     /* light_term's degenerate cases (shading/light.h), as lane masks */
-    ok &= (fabs(in.x) <= FLT_MAX) & (fabs(in.y) <= FLT_MAX) & (fabs(in.z) <= FLT_MAX);
+    ok &= pf3_finite(in);
     pfloat3 l = pf3_sub(lp, p);
     pfloat d2 = pf3_dot(l, l);
     pint scaled = ~((d2 >= FLT_MIN) & (d2 <= FLT_MAX));

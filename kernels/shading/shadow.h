@@ -88,7 +88,7 @@ inline void light_visible_packet(const Surface* s, const float3* org, const int*
     /* ray_valid(o, d, 0, 1) (core/common.h), then the side test: the dot product as
      * shadow_ray's dot3 rounds it (accel/packet_vec.h pf3_dot) */
     pfloat ax = fabs(d.x), ay = fabs(d.y), az = fabs(d.z);
-    live &= (fabs(o.x) <= FLT_MAX) & (fabs(o.y) <= FLT_MAX) & (fabs(o.z) <= FLT_MAX)
+    live &= pf3_finite(o)
           & (ax <= TX_DIR_MAX) & (ay <= TX_DIR_MAX) & (az <= TX_DIR_MAX)
           & ((ax >= TX_DIR_MIN) | (ay >= TX_DIR_MIN) | (az >= TX_DIR_MIN));
     live &= pf3_dot(d, n) > 0.0f;

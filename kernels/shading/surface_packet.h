@@ -97,6 +97,14 @@ static inline __attribute__((always_inline)) void tex_packet(__global const Text
     tex_gather_packet(textures, ti_, t);
 }
 
+/* texture/mapping.h's uv_transform of (u, v) by each lane's texture, into *su, *sv. */
+static inline __attribute__((always_inline)) void uv_transform_packet(const TexPacket* t, pfloat u, pfloat v,
+                                                                      pfloat* su, pfloat* sv)
+{
+    *su = t->m0x * u + t->m0y * v + t->m1x;
+    *sv = t->m0z * u + t->m0w * v + t->m1y;
+}
+
 /* texture/wrap.h's wrap_reduce, lane by lane. */
 static inline __attribute__((always_inline)) pfloat wrap_reduce_packet(pfloat u, pint mode)
 {
@@ -206,7 +214,8 @@ static inline __attribute__((always_inline)) void bump_gradient_packet(__global 
                                                                       pfloat height, pfloat delta, const int* ml,
                                                                       pfloat* gu, pfloat* gv)
 {
-    pfloat su = t->m0x * u + t->m0y * v + t->m1x, sv = t->m0z * u + t->m0w * v + t->m1y;   /* uv_transform */
+    pfloat su, sv;
+    uv_transform_packet(t, u, v, &su, &sv);
     pfloat gx, gy;
     int dl[TX_PACKET], exact = 0, diff = 0;
     PSTORE(as_pint(delta < 0.0f), dl);
@@ -317,9 +326,6 @@ static __attribute__((noinline)) void material_gather_packet(__global const Mate
     for (uint j = 0; j < (uint)TX_PACKET; ++j) { dtex[j] = materials[mat[j]].diffuse_tex; btex[j] = materials[mat[j]].bump_tex; }
 }
 
-/* core/common.h's finite3, lane by lane. */
-#define TX_FINITE3_P(v) ((fabs((v).x) <= FLT_MAX) & (fabs((v).y) <= FLT_MAX) & (fabs((v).z) <= FLT_MAX))
-
 /* surface_eval of lane j's ray and hit into s[j] for the lanes j of `lanes` (hits on a sphere,
  * quad or triangle, whose geometry the packet left in gl), and vout[j] = -normalize3(dir)
  * where the record is valid. hk, pidx, hb1, hb2: the lanes' hit kinds, primitive indices and
@@ -400,7 +406,7 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
         pfloat3 n1 = pf3(PLOAD(nl[3]), PLOAD(nl[4]), PLOAD(nl[5]));
         pfloat3 n2 = pf3(PLOAD(nl[6]), PLOAD(nl[7]), PLOAD(nl[8]));
         pfloat3 raw = pf3_add(pf3_add(pf3_scale(b0, n0), pf3_scale(b1, n1)), pf3_scale(b2, n2));
-        use_vn = ((pint)(TX_LANES(vn)) != 0) & (pf3_dot(raw, raw) > 0.0f) & TX_FINITE3_P(raw);
+        use_vn = ((pint)(TX_LANES(vn)) != 0) & (pf3_dot(raw, raw) > 0.0f) & pf3_finite(raw);
         lift_vn = use_vn & (pf3_dot(raw, dir) < 0.0f);        /* seen from the normals' side */
         n_out = pf3_sel(use_vn, pf3_normalize3(raw), n_out);
     }
@@ -442,7 +448,8 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
             for (uint j = 0; j < (uint)TX_PACKET; ++j) if (!mt[j]) dtex[j] = dtex[packet_first_lane(mt)];
             TexPacket dt;
             tex_packet(textures, dtex, mt, &dt);
-            pfloat su = dt.m0x * u + dt.m0y * v + dt.m1x, sv = dt.m0z * u + dt.m0w * v + dt.m1y;   /* uv_transform */
+            pfloat su, sv;
+            uv_transform_packet(&dt, u, v, &su, &sv);
             pint i00, i10, i01, i11;
             pfloat ax, ay;
             bilinear_taps_packet(&dt, &su, &sv, mt, &i00, &i10, &i01, &i11, &ax, &ay);
@@ -451,7 +458,7 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
         }
     }
     /* the record (surface_write) */
-    pint valid = TX_FINITE3_P(p) & TX_FINITE3_P(ng) & TX_FINITE3_P(ns) & TX_FINITE3_P(ks);
+    pint valid = pf3_finite(p) & pf3_finite(ng) & pf3_finite(ns) & pf3_finite(ks);
     pfloat off = pf3_dot(pf3_abs(ng), perr);                   /* dot3(abs3(ng), perr) */
     float o[20][TX_PACKET];
     int vl[TX_PACKET], ll[TX_PACKET];

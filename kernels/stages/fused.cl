@@ -220,17 +220,13 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #else
 #define TX_PRE_GEOM(j) ((const Geom*)0)
 #endif
-#if TX_SURFACE_PACKET_ONLY
-        /* every hit is the packet's (shading/surface_packet.h): the other lanes missed, and the
-         * scalar surface_eval is not in this kernel at all (its code generation is a quarter of
-         * such a program's first launch) */
-        for (uint j = 0; j < m; ++j)
-            if (!has_pre[j]) s[j].valid = 0u;
-        if (0) {
-#endif
         for (uint j = 0; j < m; ++j) {
-#if TX_SURFACE_PACKET && (TX_SPHERES || TX_QUADS || TX_TRI_GEOM_PACKET)
-            if (has_pre[j]) continue;
+#if TX_SURFACE_PACKET
+            if (has_pre[j]) continue;                /* surface_packet's */
+            /* Where every hit is the packet's, the other lanes missed: the scalar surface_eval
+             * below is then dead code, left out of the kernel (its code generation was a
+             * quarter of such a program's first launch). */
+            if (TX_SURFACE_PACKET_ONLY) { s[j].valid = 0u; continue; }
 #endif
             /* the traced ray; a lane not traced has none to shade (its hit: a miss) */
             float3 org = (float3)(pr.org[0][j], pr.org[1][j], pr.org[2][j]);
@@ -253,9 +249,6 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #undef TX_PRE_GEOM
             if (s[j].valid) v[j] = -normalize3(dir);
         }
-#if TX_SURFACE_PACKET_ONLY
-        }
-#endif
         /* What reads the records back, in a loop of its own: read right after surface_eval
          * wrote them (as scalars), their vector fields' loads waited on the stores (perf put
          * the globe's hottest instruction there); apart, tools/ab.py measured 0.98 of the
