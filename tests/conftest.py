@@ -20,10 +20,14 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 # Where Oclgrind (if it is one of the devices) writes its diagnostics: read when a
-# context is created, so set before any test creates one.
-_OWN_OCLGRIND_LOG = "OCLGRIND_LOG" not in os.environ
-OCLGRIND_LOG = Path(os.environ.setdefault(
-    "OCLGRIND_LOG", str(Path(os.environ.get("TMPDIR", "/tmp")) / f"texray-oclgrind-{os.getpid()}.log")))
+# context is created, so set before any test creates one. One log per process: pytest-xdist's
+# workers inherit the controller's environment, so a log this file chose in the controller
+# (named in TEXRAY_TEST_OWN_OCLGRIND_LOG) is replaced by the worker's own.
+_OWN_OCLGRIND_LOG = os.environ.get("OCLGRIND_LOG") in (None, os.environ.get("TEXRAY_TEST_OWN_OCLGRIND_LOG"))
+if _OWN_OCLGRIND_LOG:
+    os.environ["OCLGRIND_LOG"] = os.environ["TEXRAY_TEST_OWN_OCLGRIND_LOG"] = str(
+        Path(os.environ.get("TMPDIR", "/tmp")) / f"texray-oclgrind-{os.getpid()}.log")
+OCLGRIND_LOG = Path(os.environ["OCLGRIND_LOG"])
 
 
 def pytest_sessionfinish(session, exitstatus):

@@ -603,18 +603,14 @@ class Worker:
         r1, w1 = os.pipe()
         r2, w2 = os.pipe()
         self.log = open(self.log_path, "ab")
-        env = dict(os.environ)
+        from texray.device import icd
+        env = icd.without_registration()      # this process's registration, or an inherited one
         env.pop("PYOPENCL_CTX", None)
         # Not Intel's OpenCL CPU runtime (texray[intel], which .ci/run installs): its
         # compiler takes about a minute for the generic program, beyond a case's timeout,
         # and cases that pick devices by index or PYOPENCL_CTX would reach it. The fuzz
         # suite tests texray's handling of inputs; tests/portability covers that runtime.
         env["TEXRAY_NO_ICD"] = "1"
-        from texray.device import icd
-        if icd.registered is not None:                  # this process's registration: undone
-            env.pop("OCL_ICD_VENDORS", None)
-            if icd.original_vendors is not None:
-                env["OCL_ICD_VENDORS"] = icd.original_vendors
         env["PYTHONFAULTHANDLER"] = "1"
         env["TMPDIR"] = self.tmpdir
         self.proc = subprocess.Popen([sys.executable, str(Path(__file__).resolve()), "--serve", str(r1), str(w2),

@@ -108,6 +108,30 @@ def test_an_explicit_choice_is_left_alone(fake):
     assert _register(fake, env) is not None
 
 
+def test_a_child_with_texray_no_icd_undoes_an_inherited_registration(fake):
+    """A child process inherits the parent's OCL_ICD_VENDORS (which lists Intel, so the child
+    registers nothing): TEXRAY_NO_ICD in the child, or without_registration() in the parent,
+    gives back the user's own OCL_ICD_VENDORS (pytest-xdist's workers, the fuzz worker)."""
+    mine = fake["tmp"] / "mine"
+    _icd(mine, "oclgrind.icd", fake["grind"])
+    for user in ({"OCL_ICD_VENDORS": str(mine)}, {}):
+        env = dict(user, OPENCL_VENDOR_PATH=str(fake["system"]))
+        vendors = _register(fake, env)
+        assert env["OCL_ICD_VENDORS"] == str(vendors)
+        child = dict(env)
+        assert _register(fake, child) is None and child == env           # inherited: left as it is
+        assert icd.without_registration(child) == dict(user, OPENCL_VENDOR_PATH=str(fake["system"]))
+        assert _register(fake, dict(child, TEXRAY_NO_ICD="1")) is None
+        child["TEXRAY_NO_ICD"] = "1"
+        _register(fake, child)
+        assert child == dict(user, OPENCL_VENDOR_PATH=str(fake["system"]), TEXRAY_NO_ICD="1")
+    # a user's OCL_ICD_VENDORS set after the registration stands
+    env = {"OPENCL_VENDOR_PATH": str(fake["system"])}
+    _register(fake, env)
+    env["OCL_ICD_VENDORS"] = str(mine)
+    assert icd.without_registration(env) == {"OPENCL_VENDOR_PATH": str(fake["system"]), "OCL_ICD_VENDORS": str(mine)}
+
+
 def test_an_intel_runtime_the_loader_finds_already_is_not_registered_twice(fake):
     _icd(fake["system"], "intel.icd", fake["lib"])
     env = {"OPENCL_VENDOR_PATH": str(fake["system"])}

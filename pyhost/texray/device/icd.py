@@ -41,7 +41,9 @@ path that does not exist (those conda placeholders) is left out: it never loaded
 
 Nothing is changed (the environment is left as it is) when
 
-* ``TEXRAY_NO_ICD`` is set to anything but ``""`` or ``"0"``;
+* ``TEXRAY_NO_ICD`` is set to anything but ``""`` or ``"0"`` (a registration inherited from
+  a parent process, which leaves ``TEXRAY_ICD_VENDORS`` and ``TEXRAY_ICD_VENDORS_BEFORE``
+  in the environment, is then undone: :func:`undo`);
 * neither is found: the wheel is not installed (no ``libintelocl.so``) and no NVIDIA
   library is found, or the loader's directory names each found one already;
 * the user's ``OCL_ICD_VENDORS`` names a file, not a directory (the loader then loads
@@ -166,6 +168,7 @@ def register(environ=None, library=None, cache_dir=None, prefix_vendors=None, nv
     nothing (module docstring)."""
     environ = os.environ if environ is None else environ
     if environ.get("TEXRAY_NO_ICD", "") not in ("", "0"):
+        undo(environ)              # a registration inherited from a parent process: undone too
         return None
     library = find_runtime() if library is None else Path(library)
     nvidia = find_nvidia(environ, nvidia_dirs)
@@ -204,12 +207,43 @@ def register(environ=None, library=None, cache_dir=None, prefix_vendors=None, nv
             vendors = _write_vendor_dir(root, entries)
         except OSError:
             continue
-        environ["OCL_ICD_VENDORS"] = str(vendors)
+        environ[_BEFORE] = environ.get("OCL_ICD_VENDORS", "")
+        environ["OCL_ICD_VENDORS"] = environ[_REGISTERED] = str(vendors)
         return vendors
     return None
 
 
-original_vendors = os.environ.get("OCL_ICD_VENDORS")
-"""``OCL_ICD_VENDORS`` as this process found it, before :func:`register` (None: unset)."""
+# What a registration leaves in the environment besides OCL_ICD_VENDORS, for child processes
+# (which inherit it and then register nothing: their loader directory lists the runtime):
+# the directory registered and OCL_ICD_VENDORS before it ("" where it was unset).
+_REGISTERED, _BEFORE = "TEXRAY_ICD_VENDORS", "TEXRAY_ICD_VENDORS_BEFORE"
+
+
+def undo(environ) -> None:
+    """Take texray's registration out of ``environ`` (this process's, or one inherited from a
+    parent): ``OCL_ICD_VENDORS`` as it was before. Nothing where ``OCL_ICD_VENDORS`` was
+    changed since (the user's choice stands)."""
+    registered_dir = environ.pop(_REGISTERED, None)
+    before = environ.pop(_BEFORE, None)
+    if registered_dir is None or before is None or environ.get("OCL_ICD_VENDORS") != registered_dir:
+        return
+    if before:
+        environ["OCL_ICD_VENDORS"] = before
+    else:
+        environ.pop("OCL_ICD_VENDORS", None)
+
+
+def without_registration(environ=None) -> dict:
+    """A copy of ``environ`` (default ``os.environ``) without texray's registration
+    (:func:`undo`): the environment for a child process that must not see the runtimes
+    registered here."""
+    env = dict(os.environ if environ is None else environ)
+    undo(env)
+    return env
+
+
+original_vendors = without_registration().get("OCL_ICD_VENDORS")
+"""``OCL_ICD_VENDORS`` as the user set it, before :func:`register` in this process or a parent
+(None: unset)."""
 registered = register()
 """The vendor directory this process registered at import, or None (module docstring)."""
