@@ -879,21 +879,29 @@ def test_packet_light_terms_equal_light_term(rt, rng, width, step):
 
 
 def test_avx512_rule(monkeypatch):
-    """TX_AVX512 on PoCL where the CPU has AVX-512: scenes of triangles alone and the Tracer;
-    TEXRAY_AVX512=0 off, =1 every PoCL program; never another kind or a CPU without it."""
+    """TX_AVX512 on PoCL where the CPU has AVX-512: scenes of triangles alone, the Tracer and
+    packet programs but those with a curved shape or mesh displaced by the search (the generic
+    program among them); TEXRAY_AVX512=0 off, =1 every PoCL program; never another kind or a
+    CPU without it."""
     from texray.device import features
     tri = Features(shadows=True, triangles=True, textures=True, vertex_normals=True)
-    mix = Features(shadows=True, triangles=True, spheres=True)
+    mix = Features(shadows=True, triangles=True, spheres=True, quads=True, textures=True)
+    planet = Features(shadows=True, triangles=False, displacement=True, displaced_curved_search=True)
+    flat = Features(shadows=False, triangles=False, quads=True, textures=True)     # no packets
     monkeypatch.delenv("TEXRAY_AVX512", raising=False)
     monkeypatch.setattr(features, "cpu_avx512", lambda: True)
-    assert features.avx512(tri, "pocl") and not features.avx512(mix, "pocl")
-    assert features.avx512(mix, "pocl", rays=True)
+    assert features.avx512(tri, "pocl") and features.avx512(mix, "pocl")
+    assert not features.avx512(planet, "pocl") and not features.avx512(flat, "pocl")
+    assert not features.avx512(Features.generic(), "pocl")
+    assert features.avx512(dataclasses.replace(planet, displaced_curved_search=False), "pocl")
+    assert features.avx512(planet, "pocl", rays=True) and features.avx512(flat, "pocl", rays=True)
+    assert features.avx512(dataclasses.replace(tri, shadows=False), "pocl")
     assert features.compile_options(tri, "pocl", 16)["TX_AVX512"] == 1
-    assert features.compile_options(mix, "pocl", 16)["TX_AVX512"] == 0
+    assert features.compile_options(planet, "pocl", 16)["TX_AVX512"] == 0
     for kind in ("nvidia", "intel-cpu", None):
         assert not features.avx512(tri, kind) and features.compile_options(tri, kind)["TX_AVX512"] == 0
     monkeypatch.setenv("TEXRAY_AVX512", "1")
-    assert features.avx512(mix, "pocl") and not features.avx512(mix, "nvidia")
+    assert features.avx512(planet, "pocl") and not features.avx512(mix, "nvidia")
     monkeypatch.setenv("TEXRAY_AVX512", "0")
     assert not features.avx512(tri, "pocl") and not features.avx512(tri, "pocl", rays=True)
     monkeypatch.setenv("TEXRAY_AVX512", "1")
@@ -902,6 +910,16 @@ def test_avx512_rule(monkeypatch):
     monkeypatch.setenv("TEXRAY_AVX512", "yes")
     with pytest.raises(DeviceError, match="TEXRAY_AVX512: expected 0 or 1, got 'yes'"):
         features.avx512(tri, "pocl")
+
+
+@pytest.mark.parametrize("name, search", [("bench/planet.toml", True), ("displacement/torus_search.toml", True),
+                                          ("bench/displaced_wall.toml", False),
+                                          ("displacement/curved_maxmip.toml", False), ("bench/globe.toml", False)])
+def test_a_curved_shape_or_mesh_displaced_by_the_search_is_a_feature(name, search):
+    """Features.displaced_curved_search (the AVX-512 rule's input): a sphere, cylinder or mesh
+    displaced by the search; not a quad's search, not maxmip, not an undisplaced scene."""
+    from texray.compile import compile_scene
+    assert compile_scene(tx.load_scene(tx_scene(name))).features.displaced_curved_search is search
 
 
 def _need_avx512(device):

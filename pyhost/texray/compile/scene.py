@@ -156,6 +156,12 @@ def _maxmip_on(disp, *shapes) -> bool:
                                            & np.isin(disp["shape"], shapes)))
 
 
+def _search_on(disp, *shapes) -> bool:
+    """Some record of ``disp`` (layout.DISPLACED) with one of ``shapes`` is displaced by the search."""
+    return bool(len(disp)) and bool(np.any(((disp["method"] & 3) == layout.DISP_SEARCH)
+                                           & np.isin(disp["shape"], shapes)))
+
+
 def _sorted_objects(scene):
     """{shape class: [(obj_id, shape)]} of what the BVH holds directly (tessellated shapes
     as meshes), the [(obj_id, shape)] displaced on the device and the [(obj_id,
@@ -304,6 +310,8 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
                         displaced_curved_maxmip=_maxmip_on(disp, layout.DISP_SPHERE, layout.DISP_CYLINDER),
                         displaced_trapezoid_maxmip=_maxmip_on(disp, layout.DISP_TRAPEZOID),
                         displaced_mesh_maxmip=_maxmip_on(disp, layout.DISP_TRIANGLE),
+                        displaced_curved_search=_search_on(disp, layout.DISP_SPHERE, layout.DISP_CYLINDER,
+                                                           layout.DISP_TRIANGLE),
                         instances=instances is not None,
                         stack_size=stack_size_for(wide.stack_depth(wide_depth)),
                         max_lights=max_lights_for(len(scene.lights)))

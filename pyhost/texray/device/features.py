@@ -40,6 +40,8 @@ class Features:
     displaced_curved_maxmip: bool = False  # some sphere or cylinder is displaced by maxmip (disp_maxmip_bisect)
     displaced_trapezoid_maxmip: bool = False  # some trapezoid (convex quad, no parallelogram) by maxmip (the same)
     displaced_mesh_maxmip: bool = False  # some triangle mesh's shells by maxmip (disp_maxmip_mesh)
+    displaced_curved_search: bool = False  # some sphere, cylinder or mesh by the search: no macro, an
+                                           # input of the AVX-512 rule (avx512)
     instances: bool = False        # some mesh is instanced (two-level BVH: kernels/accel/instance.h)
     adaptive: bool = False         # the fused kernel samples listed pixels and sums Y^2 (texray.renderer.adaptive)
     one_light: bool = False        # each sample takes one of the >= 2 lights (render(light_sampling="one"))
@@ -134,7 +136,15 @@ TRACE_PACKET_WIDTHS = {"pocl": 8}
 # for rays): textured meshes 0.92, the Tracer's primary rays 1.05 times the rate at 8 lanes
 # (shadow rays equal), but brick wall 1.05-1.10, grazing quad 1.02, globe 0.98: the lane-by-lane
 # surface code (bump mapping, texel lookups) ran slower. So scenes of triangles alone
-# (:func:`triangles_only`) and the Tracer take it, the others not.
+# (:func:`triangles_only`) and the Tracer took it, the others not. Once the surfaces were
+# packets too (kernels/shading/surface_packet.h), the others gained as well (2026-12-07, the
+# same machine and A/B, TEXRAY_AVX512=1 against the rule then, medians of 3-5 interleaved rounds
+# of 5-7 frames, 512x256 at 4 spp): grazing quad 0.80, globe 0.91, brick wall 0.94, bumped globe
+# 0.96, mixed 0.94, showcase 0.995, displaced wall 0.87, terrain 0.90, scenes/displacement's brick
+# wall 0.84 and curved maxmip 0.89 (384x288); but the planet 1.29 and the torus 1.035 (384x288):
+# a sphere or mesh displaced by the search (geometry/displace.h's lane-by-lane march) ran slower.
+# So every packet program takes it but those (Features.displaced_curved_search); programs
+# without packets (no shadow rays) as before: triangles alone.
 PACKET_MIN_SAMPLES = 4        # the samples per launch the rules assume when not told
 
 
@@ -181,15 +191,16 @@ def cpu_avx512() -> bool:
 
 def avx512(f: Features, device_kind: str | None, rays: bool = False) -> bool:
     """TX_AVX512 for a program of features ``f`` on a device of ``device_kind``: PoCL's device
-    on a CPU with AVX-512 (:func:`cpu_avx512`), for the Tracer (``rays``) and scenes of triangles
-    alone (the measurements above PACKET_WIDTHS). ``TEXRAY_AVX512=0`` turns it off, ``=1`` on
+    on a CPU with AVX-512 (:func:`cpu_avx512`), for the Tracer (``rays``), scenes of triangles
+    alone and packet programs (shadow rays) but those with a sphere, cylinder or mesh displaced
+    by the search (the measurements above PACKET_WIDTHS). ``TEXRAY_AVX512=0`` turns it off, ``=1`` on
     for every PoCL program (A/B runs); neither where the CPU lacks it."""
     override = os.environ.get("TEXRAY_AVX512", "").strip()
     if override not in ("", "0", "1"):
         raise DeviceError(f"TEXRAY_AVX512: expected 0 or 1, got {override!r}")
     if device_kind != "pocl" or override == "0" or not cpu_avx512():
         return False
-    return override == "1" or rays or triangles_only(f)
+    return override == "1" or rays or triangles_only(f) or (f.shadows and not f.displaced_curved_search)
 
 
 def trace_packet_width(f: Features, device_kind: str | None) -> int:
