@@ -167,6 +167,24 @@ def test_a_band_the_cluster_loses_is_submitted_again(scenes_dir, device, client,
         bands.collect()
 
 
+def test_a_scene_the_cluster_loses_is_shipped_again(scenes_dir, device, client, many_bands):
+    """Where the scene's scattered copies are lost (here: cancelled), the bands on it are
+    cancelled with it; each is submitted again on a scene shipped again, not on the lost one
+    (which would lose it BAND_RETRIES more times: the flaky worker-killed test)."""
+    from texray.renderer.render import setup
+    scene = _scene(scenes_dir)
+    local = tx.render(scene, 48, 64, 4, device=device)
+    s = setup(scene, 48, 64, 4, device=device)
+    bands = distributed.submit_bands(client, s.cs, s.camera, 48, 64, 4, None, s.options)
+    assert len(bands.futures) >= 3
+    shipped, _, _ = distributed.ship(client, s.cs)
+    client.cancel(shipped, force=True)
+    out = bands.collect()
+    np.testing.assert_array_equal(out.rgb, local.rgb)
+    again, _, info = distributed.ship(client, s.cs)
+    assert again.status == "finished" and again.key != shipped.key and not info["shipped"]
+
+
 def test_worker_errors_arrive_as_texray_errors(scenes_dir, client):
     scene = _scene(scenes_dir)
     with pytest.raises(DeviceError, match="no-such-device"):
