@@ -51,6 +51,27 @@ static inline __attribute__((always_inline)) pfloat3 pf3_cross(pfloat3 a, pfloat
 {
     return pf3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
+/* core/builtins.h's tx_nextafter, lane by lane: the same cases in the same order as selects. */
+static inline __attribute__((always_inline)) pfloat pf_nextafter(pfloat x, pfloat y)
+{
+    puint u = as_puint(x);
+    pfloat r = as_pfloat(PSEL_I((x < y) == (x > 0.0f), as_pint(u + 1u), as_pint(u - 1u)));
+    r = PSEL_F(x == 0.0f, as_pfloat(PSEL_I(y > 0.0f, (pint)(1), (pint)((int)0x80000001u))), r);
+    r = PSEL_F(x == y, y, r);
+    return PSEL_F((x != x) | (y != y), x + y, r);
+}
+/* core/common.h's offset_point, lane by lane, compiled as there (p + n * offset contracted):
+ * each component one float step further along its normal component's sign. */
+static inline __attribute__((always_inline)) pfloat pf_offset_step(pfloat q, pfloat n)
+{
+    pfloat step = pf_nextafter(q, PSEL_F(n > 0.0f, (pfloat)(INFINITY), (pfloat)(-INFINITY)));
+    return PSEL_F((n > 0.0f) | (n < 0.0f), step, q);
+}
+static inline __attribute__((always_inline)) pfloat3 pf3_offset_point(pfloat3 p, pfloat3 n, pfloat offset)
+{
+    pfloat3 q = pf3(p.x + n.x * offset, p.y + n.y * offset, p.z + n.z * offset);
+    return pf3(pf_offset_step(q.x, n.x), pf_offset_step(q.y, n.y), pf_offset_step(q.z, n.z));
+}
 
 #if TX_POCL
 /* core/builtins.h's tx_log2 and tx_exp2 (PoCL's exp2 and log2) lane by lane, bit for bit:

@@ -55,35 +55,56 @@ inline uchar light_visible(const Surface* s, float3 org, int lifted, float3 lpos
 }
 
 #if TX_PACKET
+/* The shadow origins of a chunk's surface points as vectors: shadow_origin's origin, the
+ * normal of shadow_ray's side test (ns where the origin was lifted, else ng) and the valid
+ * points, computed once for every light of the chunk. */
+typedef struct {
+    pfloat3 o, n;
+    pint valid;
+} ShadowLanes;
+
+/* shadow_origin for the m <= TX_PACKET surface points s[0..m) as one vector computation:
+ * each lane's record gathered straight into vectors (lanes past m read lane m - 1's), the
+ * same operations in the same order (the dot product and offset_point contracted as in
+ * core/common.h: accel/packet_vec.h), so each lane's origin is shadow_origin's bit for bit.
+ * Lanes whose record is not valid compute on whatever it holds and are masked off. */
+inline void shadow_origins_packet(const Surface* s, uint m, ShadowLanes* out)
+{
+#define TX_SO(j, f) s[TX_MIN((uint)(j), m - 1u)].f
+    pfloat3 p = pf3((pfloat)PGATHER_A(TX_SO, p[0]), (pfloat)PGATHER_A(TX_SO, p[1]), (pfloat)PGATHER_A(TX_SO, p[2]));
+    pfloat3 lift = pf3((pfloat)PGATHER_A(TX_SO, lift[0]), (pfloat)PGATHER_A(TX_SO, lift[1]),
+                       (pfloat)PGATHER_A(TX_SO, lift[2]));
+    pfloat3 ng = pf3((pfloat)PGATHER_A(TX_SO, ng[0]), (pfloat)PGATHER_A(TX_SO, ng[1]), (pfloat)PGATHER_A(TX_SO, ng[2]));
+    pfloat3 ns = pf3((pfloat)PGATHER_A(TX_SO, ns[0]), (pfloat)PGATHER_A(TX_SO, ns[1]), (pfloat)PGATHER_A(TX_SO, ns[2]));
+    pfloat offset = (pfloat)PGATHER_A(TX_SO, offset);
+    pint valid = as_pint((puint)PGATHER_A(TX_SO, valid)) != 0;
+#undef TX_SO
+    pint lifted = pf3_dot(lift, lift) > 16.0f * offset * offset;     /* shadow_origin's test */
+    out->o = pf3_offset_point(pf3_add(p, lift), ng, offset);
+    out->n = pf3_sel(lifted, ns, ng);
+    out->valid = valid;
+}
+
 /* light_visible for the m <= TX_PACKET surface points s[0..m) with their shadow origins
- * org[j] and lifted[j] (shadow_origin), each toward its own light lpos[j], into vis[j]: the
+ * (shadow_origins_packet), each toward its own light lpos[j], into vis[j]: the
  * same answers, from one packet traversal (accel/packet.h). Points that are not valid get 0.
  * Every sample's rays toward one light (lpos[j] all equal), or with TX_ONE_LIGHT each
  * sample's ray toward the light it picked: one packet for the chunk, not one per light with
  * the other lights' lanes idle. */
-inline void light_visible_packet(const Surface* s, const float3* org, const int* lifted, uint m, const float3* lpos,
-                                 TX_GEOM_PARAMS, uchar* vis)
+inline void light_visible_packet(const ShadowLanes* sl, uint m, const float3* lpos, TX_GEOM_PARAMS, uchar* vis)
 {
-    /* shadow_ray for every lane as one vector computation: each lane's inputs gathered
-     * straight into vectors (lanes past m read lane m - 1's and are masked off), not written
+    /* shadow_ray for every lane as one vector computation: the lights gathered straight
+     * into vectors (lanes past m read lane m - 1's and are masked off), not written
      * lane by lane into the packet and read back as vectors, which stalled on the
      * store-to-load forwarding (a fifth of this function's time, perf on the globe) */
     if (m == 0u) return;
 #define TX_SH_J(j) TX_MIN((uint)(j), m - 1u)
-#define TX_SH_OX(j) org[TX_SH_J(j)].x
-#define TX_SH_OY(j) org[TX_SH_J(j)].y
-#define TX_SH_OZ(j) org[TX_SH_J(j)].z
 #define TX_SH_LX(j) lpos[TX_SH_J(j)].x
 #define TX_SH_LY(j) lpos[TX_SH_J(j)].y
 #define TX_SH_LZ(j) lpos[TX_SH_J(j)].z
-#define TX_SH_NX(j) (lifted[TX_SH_J(j)] ? s[TX_SH_J(j)].ns[0] : s[TX_SH_J(j)].ng[0])
-#define TX_SH_NY(j) (lifted[TX_SH_J(j)] ? s[TX_SH_J(j)].ns[1] : s[TX_SH_J(j)].ng[1])
-#define TX_SH_NZ(j) (lifted[TX_SH_J(j)] ? s[TX_SH_J(j)].ns[2] : s[TX_SH_J(j)].ng[2])
-#define TX_SH_VALID(j) (s[TX_SH_J(j)].valid ? -1 : 0)
-    pfloat3 o = pf3((pfloat)PGATHER(TX_SH_OX), (pfloat)PGATHER(TX_SH_OY), (pfloat)PGATHER(TX_SH_OZ));
+    pfloat3 o = sl->o, n = sl->n;
     pfloat3 l = pf3((pfloat)PGATHER(TX_SH_LX), (pfloat)PGATHER(TX_SH_LY), (pfloat)PGATHER(TX_SH_LZ));
-    pfloat3 n = pf3((pfloat)PGATHER(TX_SH_NX), (pfloat)PGATHER(TX_SH_NY), (pfloat)PGATHER(TX_SH_NZ));
-    pint live = (pint)PGATHER(TX_SH_VALID) & (as_pint(TX_PKT_LANE_IDS) < (pint)((int)m));
+    pint live = sl->valid & (as_pint(TX_PKT_LANE_IDS) < (pint)((int)m));
     pfloat3 d = pf3_sub(l, o);
     /* ray_valid(o, d, 0, 1) (core/common.h), then the side test: the dot product as
      * shadow_ray's dot3 rounds it (accel/packet_vec.h pf3_dot) */
@@ -107,16 +128,9 @@ inline void light_visible_packet(const Surface* s, const float3* org, const int*
     PSTORE(live & ~bvh_any_packet(TX_GEOM_ARGS, &r, live), occ);   /* visible: traced and not occluded */
     for (uint j = 0; j < m; ++j) vis[j] = occ[j] != 0;
 #undef TX_SH_J
-#undef TX_SH_OX
-#undef TX_SH_OY
-#undef TX_SH_OZ
 #undef TX_SH_LX
 #undef TX_SH_LY
 #undef TX_SH_LZ
-#undef TX_SH_NX
-#undef TX_SH_NY
-#undef TX_SH_NZ
-#undef TX_SH_VALID
 }
 #endif
 

@@ -89,8 +89,11 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
     for (uint k0 = 0; k0 < total; k0 += TX_CHUNK) {
         uint m = TX_MIN(total - k0, (uint)TX_CHUNK);
         Surface s[TX_CHUNK];
-        float3 v[TX_CHUNK], c[TX_CHUNK], sorg[TX_CHUNK];
+        float3 v[TX_CHUNK], c[TX_CHUNK];
+#if !TX_PACKET
+        float3 sorg[TX_CHUNK];
         int lifted[TX_CHUNK];
+#endif
         uchar vis[TX_CHUNK];
         uint lp[TX_CHUNK];                           /* each sample's pixel (0 .. npix - 1) */
 #if TX_PACKET && !TX_INSTANCES
@@ -257,9 +260,17 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
             c[j] = background.xyz;
             if (s[j].valid) {
                 c[j] = ambient.xyz * vload3(0, s[j].kd);
+#if !TX_PACKET
                 sorg[j] = shadow_origin(s + j, lifted + j);
+#endif
             }
         }
+#if TX_PACKET
+        /* the shadow origins as vectors, once for every light (shading/shadow.h) */
+        ShadowLanes sl;
+        if (nlights)
+            shadow_origins_packet(s, m, &sl);
+#endif
         /* the shadow rays: with TX_ONE_LIGHT each sample's toward the light it picked
          * (core/sampler.h light_pick), as one packet for the chunk; otherwise each light's
          * for the whole chunk */
@@ -273,7 +284,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
                 lposj[j] = vload3(0, lights[pick[j]].position);
             }
 #if TX_PACKET
-            light_visible_packet(s, sorg, lifted, m, lposj, TX_GEOM_ARGS, vis);
+            light_visible_packet(&sl, m, lposj, TX_GEOM_ARGS, vis);
 #else
             for (uint j = 0; j < m; ++j)
                 vis[j] = s[j].valid && light_visible(s + j, sorg[j], lifted[j], lposj[j], TX_GEOM_ARGS);
@@ -296,7 +307,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #if TX_PACKET
             float3 lposj[TX_CHUNK];
             for (uint j = 0; j < (uint)TX_CHUNK; ++j) lposj[j] = lpos;
-            light_visible_packet(s, sorg, lifted, m, lposj, TX_GEOM_ARGS, vis);
+            light_visible_packet(&sl, m, lposj, TX_GEOM_ARGS, vis);
 #else
             for (uint j = 0; j < m; ++j)
                 vis[j] = s[j].valid && light_visible(s + j, sorg[j], lifted[j], lpos, TX_GEOM_ARGS);

@@ -963,3 +963,109 @@ def test_avx512_tracer_hits_equal_avx2(device, rng, monkeypatch):
         assert np.array_equal(getattr(h0, f), getattr(h1, f), equal_nan=True), f
     assert (h0.prim >= 0).sum() > 100
     assert np.array_equal(o0, o1) and 0 < o0.sum() < len(o0)
+
+
+_SHADOW_ORIGINS_KERNEL = r"""
+#include "texray.cl"
+
+/* Work-item i: records TX_PACKET i .. (16 floats each: p, lift, ng, ns, offset, valid's bits) as
+ * one chunk of m = TX_PACKET (odd i: TX_PACKET - 3, the lanes past m reading lane m - 1's):
+ * shadow_origins_packet (out_p) and shadow_origin lane by lane (out_s), 7 floats each (the
+ * origin, the side test's normal, whether valid). */
+__kernel void shadow_origins(__global const float* in, __global float* out_s, __global float* out_p, uint n)
+{
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    uint m = (i & 1u) ? (uint)TX_PACKET - 3u : (uint)TX_PACKET;
+    Surface s[TX_PACKET];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        __global const float* r = in + 16 * (TX_PACKET * i + j);
+        for (int c = 0; c < 3; ++c) {
+            s[j].p[c] = r[c]; s[j].lift[c] = r[3 + c]; s[j].ng[c] = r[6 + c]; s[j].ns[c] = r[9 + c];
+        }
+        s[j].offset = r[12];
+        s[j].valid = as_uint(r[13]);
+    }
+    ShadowLanes sl;
+    shadow_origins_packet(s, m, &sl);
+    float o[7][TX_PACKET];
+    PSTORE(sl.o.x, o[0]); PSTORE(sl.o.y, o[1]); PSTORE(sl.o.z, o[2]);
+    PSTORE(sl.n.x, o[3]); PSTORE(sl.n.y, o[4]); PSTORE(sl.n.z, o[5]);
+    PSTORE(as_pfloat(sl.valid), o[6]);
+    for (uint j = 0; j < m; ++j) {
+        __global float* a = out_p + 7 * (TX_PACKET * i + j);
+        __global float* b = out_s + 7 * (TX_PACKET * i + j);
+        for (int c = 0; c < 7; ++c) a[c] = o[c][j];
+        int lifted = 0;
+        float3 org = shadow_origin(s + j, &lifted);
+        float3 nn = lifted ? vload3(0, s[j].ns) : vload3(0, s[j].ng);
+        vstore3(org, 0, b); vstore3(nn, 0, b + 3);
+        b[6] = as_float(s[j].valid ? -1 : 0);
+    }
+}
+"""
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_packet_shadow_origins_equal_shadow_origin(rt, rng, width):
+    """shadow_origins_packet (shading/shadow.h: the fused kernel's shadow origins, with
+    accel/packet_vec.h's offset_point and nextafter) gives shadow_origin's origin and side-test
+    normal bit for bit in every valid lane: random points and normals, lifts on both sides of
+    the lifted test, normal components 0, -0 and NaN, points whose offset lands on 0 and -0,
+    denormals, infinities, NaNs, huge offsets, and chunks shorter than the packet."""
+    import pyopencl as cl
+    from kernel_harness import build_test_program
+    from texray.device.features import compile_options
+    n = 1 << 15
+    rec = np.zeros((n, 16), np.float32)
+    rec[:, 0:3] = rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(-6, 6, (n, 1))
+    off = (10.0 ** rng.uniform(-8, 0, n)).astype(np.float32)
+    rec[:, 12] = off
+    lift = rng.normal(size=(n, 3)) * (4 * off[:, None] * rng.uniform(0.5, 1.5, (n, 1)) / np.sqrt(3))
+    rec[:, 3:6] = np.where(rng.random((n, 1)) < 0.3, 0, lift)
+    ng = rng.normal(size=(n, 3))
+    ng /= np.linalg.norm(ng, axis=1, keepdims=True)
+    rec[:, 6:9] = ng
+    rec[:, 9:12] = rng.normal(size=(n, 3))
+    kind = np.arange(n) % 8
+    z = kind == 1                                             # normal components 0 and -0
+    rec[z, 6] = 0.0
+    rec[z, 7] = -0.0
+    k2 = kind == 2                                            # p + ng * offset lands on 0 or -0 (exact:
+    rec[k2, 12] = np.float32(2.0 ** -10)                      # a power of two, no lift)
+    rec[k2, 3:6] = 0.0
+    rec[k2, 0:3] = -rec[k2, 6:9] * rec[k2, 12:13]
+    k3 = kind == 3                                            # special values anywhere
+    special = np.float32([0.0, -0.0, np.inf, -np.inf, np.nan, 1e-45, -1e-45, 1e-40, 3.4e38, -3.4e38, 1.0])
+    rec[k3, :13] = rng.choice(special, (k3.sum(), 13))
+    k4 = kind == 4                                            # random bit patterns
+    rec[k4, :13] = rng.integers(0, 1 << 32, (k4.sum(), 13), dtype=np.uint64).astype(np.uint32).view(np.float32)
+    rec[kind == 5, 12] = np.float32(1e30)                     # a huge offset
+    valid = np.where(rng.random(n) < 0.85, np.uint32(1), np.uint32(0))
+    rec[:, 13] = valid.view(np.float32)
+    opts = {**compile_options(Features(quads=True, triangles=False, textures=True)), "TX_PACKET": width}
+    k = build_test_program(rt, (), _SHADOW_ORIGINS_KERNEL, [f"-D{a}={b}" for a, b in opts.items()])
+    mf = cl.mem_flags
+    bi = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=rec)
+    out_s = np.full((n, 7), np.nan, np.float32)
+    out_p = out_s.copy()
+    bs = cl.Buffer(rt.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out_s)
+    bp = cl.Buffer(rt.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out_p)
+    k.shadow_origins(rt.queue, (n // width,), None, bi, bs, bp, np.uint32(n // width))
+    cl.enqueue_copy(rt.queue, out_s, bs)
+    cl.enqueue_copy(rt.queue, out_p, bp)
+    lane = np.arange(n) % width
+    ran = np.where((np.arange(n) // width) % 2 == 1, lane < width - 3, True)
+    assert np.array_equal(out_p[ran, 6].view(np.int32), out_s[ran, 6].view(np.int32))
+    live = ran & (valid == 1)
+    a, b = out_p[live, :6].view(np.uint32), out_s[live, :6].view(np.uint32)
+    same = (a == b) | (np.isnan(out_p[live, :6]) & np.isnan(out_s[live, :6]))
+    bad = np.flatnonzero(~same.all(axis=1))
+    assert bad.size == 0, f"{bad.size} lanes differ, e.g. record {rec[live][bad[0]]!r}: {out_p[live][bad[0]]!r} " \
+                          f"against {out_s[live][bad[0]]!r}"
+    # the cases happened: lifted and not, steps from 0, infinities, NaNs
+    lifted_lane = np.any(out_s[live, 3:6] != rec[live, 6:9], axis=1) & np.all(np.isfinite(rec[live, 6:12]), axis=1)
+    assert lifted_lane.sum() > 1000 and (~lifted_lane).sum() > 1000
+    o = out_s[live, :3]
+    assert (np.abs(o[kind[live] == 2]) == np.float32(1e-45)).any()
+    assert np.isinf(o).any() and np.isnan(o).any() and (live.sum() > n // 2)
