@@ -26,6 +26,8 @@
 #define PGATHER_A_8(E, a) (E(0, a), E(1, a), E(2, a), E(3, a), E(4, a), E(5, a), E(6, a), E(7, a))
 #define PGATHER_A_16(E, a) (E(0, a), E(1, a), E(2, a), E(3, a), E(4, a), E(5, a), E(6, a), E(7, a), E(8, a), \
                             E(9, a), E(10, a), E(11, a), E(12, a), E(13, a), E(14, a), E(15, a))
+/* A three-float field f of each lane's record, E(j, f[0]) .. E(j, f[2]), as a pfloat3. */
+#define PGATHER_F3(E, f) pf3((pfloat)PGATHER_A(E, f[0]), (pfloat)PGATHER_A(E, f[1]), (pfloat)PGATHER_A(E, f[2]))
 
 /* A 3-vector per lane. */
 typedef struct {

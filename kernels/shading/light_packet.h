@@ -34,8 +34,7 @@ inline void light_term_packet(const Surface* s, const float3* v, const float3* l
     if (!any(ok)) return;
 /* a Surface field's three floats, a float3 array's elements and the intensities as pfloat3s */
 #define TX_LT_SF(j, f) s[TX_LT_J(j)].f
-#define TX_LT_S3(f) pf3((pfloat)PGATHER_A(TX_LT_SF, f[0]), (pfloat)PGATHER_A(TX_LT_SF, f[1]), \
-                        (pfloat)PGATHER_A(TX_LT_SF, f[2]))
+#define TX_LT_S3(f) PGATHER_F3(TX_LT_SF, f)
 #define TX_LT_AX(j, a) a[TX_LT_J(j)].x
 #define TX_LT_AY(j, a) a[TX_LT_J(j)].y
 #define TX_LT_AZ(j, a) a[TX_LT_J(j)].z

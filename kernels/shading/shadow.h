@@ -71,11 +71,8 @@ typedef struct {
 inline void shadow_origins_packet(const Surface* s, uint m, ShadowLanes* out)
 {
 #define TX_SO(j, f) s[TX_MIN((uint)(j), m - 1u)].f
-    pfloat3 p = pf3((pfloat)PGATHER_A(TX_SO, p[0]), (pfloat)PGATHER_A(TX_SO, p[1]), (pfloat)PGATHER_A(TX_SO, p[2]));
-    pfloat3 lift = pf3((pfloat)PGATHER_A(TX_SO, lift[0]), (pfloat)PGATHER_A(TX_SO, lift[1]),
-                       (pfloat)PGATHER_A(TX_SO, lift[2]));
-    pfloat3 ng = pf3((pfloat)PGATHER_A(TX_SO, ng[0]), (pfloat)PGATHER_A(TX_SO, ng[1]), (pfloat)PGATHER_A(TX_SO, ng[2]));
-    pfloat3 ns = pf3((pfloat)PGATHER_A(TX_SO, ns[0]), (pfloat)PGATHER_A(TX_SO, ns[1]), (pfloat)PGATHER_A(TX_SO, ns[2]));
+    pfloat3 p = PGATHER_F3(TX_SO, p), lift = PGATHER_F3(TX_SO, lift);
+    pfloat3 ng = PGATHER_F3(TX_SO, ng), ns = PGATHER_F3(TX_SO, ns);
     pfloat offset = (pfloat)PGATHER_A(TX_SO, offset);
     pint valid = as_pint((puint)PGATHER_A(TX_SO, valid)) != 0;
 #undef TX_SO

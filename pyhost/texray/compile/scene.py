@@ -150,16 +150,10 @@ def _displaced(items, shells, mats):
     return rec, heights, outward(lo - pad, hi + pad)
 
 
-def _maxmip_on(disp, *shapes) -> bool:
-    """Some record of ``disp`` (layout.DISPLACED) with one of ``shapes`` is displaced by maxmip."""
-    return bool(len(disp)) and bool(np.any(((disp["method"] & 3) == layout.DISP_MAXMIP)
-                                           & np.isin(disp["shape"], shapes)))
-
-
-def _search_on(disp, *shapes) -> bool:
-    """Some record of ``disp`` (layout.DISPLACED) with one of ``shapes`` is displaced by the search."""
-    return bool(len(disp)) and bool(np.any(((disp["method"] & 3) == layout.DISP_SEARCH)
-                                           & np.isin(disp["shape"], shapes)))
+def _method_on(disp, method, *shapes) -> bool:
+    """Some record of ``disp`` (layout.DISPLACED) with one of ``shapes`` is displaced by ``method``
+    (layout.DISP_SEARCH or DISP_MAXMIP)."""
+    return bool(len(disp)) and bool(np.any(((disp["method"] & 3) == method) & np.isin(disp["shape"], shapes)))
 
 
 def _sorted_objects(scene):
@@ -307,11 +301,12 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
                         bump=any(m.bump is not None for m in mats.materials),
                         normal_maps=any(m.normal_map is not None for m in mats.materials),
                         displacement=len(disp) > 0, displaced_meshes=bool(shells),
-                        displaced_curved_maxmip=_maxmip_on(disp, layout.DISP_SPHERE, layout.DISP_CYLINDER),
-                        displaced_trapezoid_maxmip=_maxmip_on(disp, layout.DISP_TRAPEZOID),
-                        displaced_mesh_maxmip=_maxmip_on(disp, layout.DISP_TRIANGLE),
-                        displaced_curved_search=_search_on(disp, layout.DISP_SPHERE, layout.DISP_CYLINDER,
-                                                           layout.DISP_TRIANGLE),
+                        displaced_curved_maxmip=_method_on(disp, layout.DISP_MAXMIP, layout.DISP_SPHERE,
+                                                           layout.DISP_CYLINDER),
+                        displaced_trapezoid_maxmip=_method_on(disp, layout.DISP_MAXMIP, layout.DISP_TRAPEZOID),
+                        displaced_mesh_maxmip=_method_on(disp, layout.DISP_MAXMIP, layout.DISP_TRIANGLE),
+                        displaced_curved_search=_method_on(disp, layout.DISP_SEARCH, layout.DISP_SPHERE,
+                                                           layout.DISP_CYLINDER, layout.DISP_TRIANGLE),
                         instances=instances is not None,
                         stack_size=stack_size_for(wide.stack_depth(wide_depth)),
                         max_lights=max_lights_for(len(scene.lights)))

@@ -242,8 +242,5 @@ def without_registration(environ=None) -> dict:
     return env
 
 
-original_vendors = without_registration().get("OCL_ICD_VENDORS")
-"""``OCL_ICD_VENDORS`` as the user set it, before :func:`register` in this process or a parent
-(None: unset)."""
 registered = register()
 """The vendor directory this process registered at import, or None (module docstring)."""

@@ -296,15 +296,15 @@ def submit_bands(client, cs, camera, width, height, spp, rows, options) -> Bands
     per = band_rows(width, y_end - y_start, spp, workers, _rates.get(client))
     fut, key, shipped = ship(client, cs)
     bands = [(a, min(a + per, y_end)) for a in range(y_start, y_end, per)]
-    scene = [fut]
 
     def submit(i):
+        nonlocal fut
         # A band submitted again after the cluster lost it: where the scene went with it (the
         # scattered copies lost or cancelled, so that every task on it would be cancelled
         # again), the scene is shipped again first.
-        if scene[0].status != "finished":
-            scene[0] = ship(client, cs)[0]
-        return client.submit(render_band, scene[0], key, camera, width, height, spp, bands[i], options,
+        if fut.status != "finished":
+            fut = ship(client, cs)[0]
+        return client.submit(render_band, fut, key, camera, width, height, spp, bands[i], options,
                              key=f"texray-band-{uuid.uuid4().hex[:12]}-{bands[i][0]}", pure=False)
     futures = [submit(i) for i in range(len(bands))]
     return Bands(client=client, futures=futures, bands=bands, width=width, rows=(y_start, y_end), ship=shipped,
