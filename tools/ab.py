@@ -1,7 +1,7 @@
 """A/B frame times of two checkouts of texray, interleaved, in fresh processes.
 
     python tools/ab.py BASE NEW [SCENE.toml ...] [--size 512x384] [--spp 8] [--rounds 3]
-                       [--frames 5] [--device pocl] [--light-sampling all|one]
+                       [--frames 5] [--device pocl] [--light-sampling all|one] [--no-shadows]
                        [--base-env K=V ...] [--new-env K=V ...]
 
 BASE and NEW are source trees (a `git worktree add /tmp/base <commit>` of the commit
@@ -11,7 +11,8 @@ kernels, then with NEW's, each in its own process (one warm-up frame, then the m
 it prints every round's times and the median of the rounds' ratios NEW / BASE (< 1:
 NEW is faster). The default scenes are the bench's globe, textured meshes, bumped
 brick wall and grazing quad. ``--light-sampling one`` renders both sides with one light
-per sample (``render(light_sampling="one")``, Mitsuba's estimator). ``--base-env``/``--new-env`` set environment variables in
+per sample (``render(light_sampling="one")``, Mitsuba's estimator); ``--no-shadows``
+without shadow rays (``render(shadows=False)``). ``--base-env``/``--new-env`` set environment variables in
 one side's processes, so that one tree A/Bs a setting:
 
     python tools/ab.py . . scenes/bench/textured_meshes.toml --base-env TEXRAY_PACKET=8 --new-env TEXRAY_PACKET=16
@@ -35,24 +36,27 @@ DEFAULT_SCENES = [ROOT / "scenes" / "bench" / f"{n}.toml"
 _CHILD = r"""
 import json, statistics, sys
 from pathlib import Path
-tree, scene, w, h, spp, frames, device, ls = sys.argv[1:9]
+tree, scene, w, h, spp, frames, device, ls, shadows = sys.argv[1:10]
 import texray.device.opencl as o
 o.KERNEL_DIR = Path(tree) / "kernels"
 o._kernel_sources_digest.cache_clear()
 import texray as tx
 s = tx.Scene.load(scene)
 kw = {"light_sampling": ls} if ls != "all" else {}
+if shadows == "0":
+    kw["shadows"] = False
 tx.render(s, int(w), int(h), int(spp), device=device, **kw)
 ts = [tx.render(s, int(w), int(h), int(spp), device=device, **kw).stats["render_s"] for _ in range(int(frames))]
 print(json.dumps(statistics.median(ts)))
 """
 
 
-def frame_time(tree: Path, scene: Path, size, spp, frames, device, extra_env=(), light_sampling="all") -> float:
+def frame_time(tree: Path, scene: Path, size, spp, frames, device, extra_env=(), light_sampling="all",
+               shadows=True) -> float:
     tree = tree.resolve()
     env = dict(os.environ, PYTHONPATH=str(tree / "pyhost"), **dict(extra_env))
     out = subprocess.run([sys.executable, "-c", _CHILD, str(tree), str(scene), str(size[0]), str(size[1]),
-                          str(spp), str(frames), device, light_sampling], env=env, capture_output=True, text=True, cwd="/")
+                          str(spp), str(frames), device, light_sampling, str(int(shadows))], env=env, capture_output=True, text=True, cwd="/")
     if out.returncode != 0:
         raise SystemExit(f"ab: {tree} on {scene} failed:\n{out.stderr[-2000:]}")
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -71,6 +75,7 @@ def main(argv=None):
                     help="device name (default PoCL's platform, which every version matches)")
     ap.add_argument("--light-sampling", choices=("all", "one"), default="all",
                     help="render(light_sampling=...) on both sides (default all)")
+    ap.add_argument("--no-shadows", action="store_true", help="render(shadows=False) on both sides")
     ap.add_argument("--base-env", action="append", default=[], metavar="K=V",
                     help="an environment variable of BASE's processes (repeatable)")
     ap.add_argument("--new-env", action="append", default=[], metavar="K=V",
@@ -92,8 +97,10 @@ def main(argv=None):
     for scene in [s.resolve() for s in a.scenes] or DEFAULT_SCENES:
         ratios = []
         for r in range(a.rounds):
-            tb = frame_time(a.base, scene, size, a.spp, a.frames, a.device, envs[0], a.light_sampling)
-            tn = frame_time(a.new, scene, size, a.spp, a.frames, a.device, envs[1], a.light_sampling)
+            tb = frame_time(a.base, scene, size, a.spp, a.frames, a.device, envs[0], a.light_sampling,
+                            not a.no_shadows)
+            tn = frame_time(a.new, scene, size, a.spp, a.frames, a.device, envs[1], a.light_sampling,
+                            not a.no_shadows)
             ratios.append(tn / tb)
             print(f"{scene.stem:18s} round {r + 1}: base {tb * 1e3:8.1f} ms  new {tn * 1e3:8.1f} ms  "
                   f"new/base {tn / tb:.3f}", flush=True)

@@ -120,9 +120,12 @@ inline void light_visible_packet(const ShadowLanes* sl, uint m, const float3* lp
     PSTORE(PSEL_F(live, d.z, (pfloat)(1.0f)), r.dir[2]);
     PSTORE((pfloat)(0.0f), r.range[0]);
     PSTORE((pfloat)(1.0f), r.range[1]);
-    packet_setup(&r, live);
     int occ[TX_PACKET];
-    PSTORE(live & ~bvh_any_packet(TX_GEOM_ARGS, &r, live), occ);   /* visible: traced and not occluded */
+    if (TX_SHADOWS) {
+        packet_setup(&r, live);
+        live &= ~bvh_any_packet(TX_GEOM_ARGS, &r, live);              /* visible: traced and not occluded */
+    }
+    PSTORE(live, occ);                           /* without TX_SHADOWS: every valid ray's light, as light_visible */
     for (uint j = 0; j < m; ++j) vis[j] = occ[j] != 0;
 #undef TX_SH_J
 #undef TX_SH_LX

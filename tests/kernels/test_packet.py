@@ -280,6 +280,32 @@ def test_rendered_images_do_not_depend_on_the_packet_width(device, monkeypatch):
     assert lit.std() > 0.05 and np.isfinite(lit).all()
 
 
+@pytest.mark.parametrize("name", ["bench/textured_meshes.toml", "bench/globe.toml", "bench/brick_wall.toml"])
+def test_packets_without_shadow_rays_keep_the_image(device, monkeypatch, name):
+    """render(shadows=False) and a scene without lights take packets too (the camera rays,
+    surfaces and shading; light_visible_packet then traces nothing): the scalar image bit for
+    bit at every width, and no darker anywhere than the shadowed image (each light's term
+    only added where the shadowed render drops it), brighter where a shadow fell."""
+    scene = tx.load_scene(tx_scene(name))
+    dark = dataclasses.replace(scene, lights=[], ambient=(0.3, 0.25, 0.2))
+    out = {}
+    for w in (0, *WIDTHS):
+        monkeypatch.setenv("TEXRAY_PACKET", str(w))
+        a = tx.render(scene, 37, 23, 5, device=device, seed=2, shadows=False)
+        b = tx.render(dark, 37, 23, 5, device=device, seed=2)
+        assert a.stats["packet"] == w and b.stats["packet"] == w
+        out[w] = (a.rgb, b.rgb)
+        if w == 0:
+            lit = tx.render(scene, 37, 23, 5, device=device, seed=2).rgb
+    for w in WIDTHS:
+        assert np.array_equal(out[w][0], out[0][0]), f"width {w}: shadows=False differs"
+        assert np.array_equal(out[w][1], out[0][1]), f"width {w}: no lights differs"
+    assert np.isfinite(out[0][0]).all() and np.all(out[0][0] >= lit)
+    if name == "bench/textured_meshes.toml":         # the vase's and torus's shadows on the ground
+        assert (out[0][0] > lit).any()               # (a lone sphere or wall shadows nothing)
+    assert out[0][1].std() > 0.01 and np.isfinite(out[0][1]).all()
+
+
 @pytest.mark.parametrize("spp", [1, 2, 3, 4, 12, 16])
 def test_several_pixels_per_work_item_keep_the_image(device, monkeypatch, spp):
     """Where a pixel's samples per launch leave lanes of its last packet empty, each work-item
@@ -314,7 +340,7 @@ def tx_scene(rel):
 
 
 def test_packet_rule():
-    """Packets where they measured faster: PoCL, shadows on; at any spp, several pixels per
+    """Packets where they measured faster: PoCL, with or without shadow rays; at any spp, several pixels per
     work-item where one pixel's samples leave lanes empty (pixels_per_item: the fewest packets
     per pixel, then the fewest pixels), adaptive sampling's rounds too (pixels from its
     list); 16 lanes for every scene. Intel's runtime: only when forced (TEXRAY_PACKET), for its
@@ -336,15 +362,17 @@ def test_packet_rule():
     assert packet_width(tri, "nvidia", 16) == 0 and pixels_per_item(tri, "nvidia", 1) == 1
     assert packet_width(tri, "intel-cpu", 16) == 0 and pixels_per_item(tri, "intel-cpu", 1) == 1
     assert packet_width(tri, None, 16) == 0
-    assert packet_width(Features(shadows=False, triangles=True), "pocl", 16) == 0
-    assert pixels_per_item(Features(shadows=False, triangles=True), "pocl", 1) == 1
+    # without shadow rays too: the camera rays, surfaces and shading are packets all the same
+    assert packet_width(Features(shadows=False, triangles=True), "pocl", 16) == 16
+    assert pixels_per_item(Features(shadows=False, triangles=True), "pocl", 1) == 16
+    assert packet_width(Features(shadows=False, triangles=True), "nvidia", 16) == 0
     assert packet_width(Features.generic(), "pocl", 16) == 16
 
 
 def test_tracer_packet_rule(monkeypatch):
     """The Tracer's batches of rays take the kind's width of TRACE_PACKET_WIDTHS on every scene
-    (8 on PoCL, where frames take 16), none on other kinds or without
-    shadows; TEXRAY_PACKET overrides it as it does the renderer's rule."""
+    (8 on PoCL, where frames take 16), none on other kinds; TEXRAY_PACKET overrides it as
+    it does the renderer's rule."""
     from texray.device.features import trace_packet_width
     monkeypatch.delenv("TEXRAY_PACKET", raising=False)
     tri = Features(shadows=True, triangles=True)
@@ -353,7 +381,7 @@ def test_tracer_packet_rule(monkeypatch):
     assert trace_packet_width(mix, "pocl") == 8 and packet_width(mix, "pocl", 16) == 16
     assert trace_packet_width(tri, "nvidia") == 0 and trace_packet_width(tri, "intel-cpu") == 0
     assert trace_packet_width(tri, None) == 0
-    assert trace_packet_width(Features(shadows=False, triangles=True), "pocl") == 0
+    assert trace_packet_width(Features(shadows=False, triangles=True), "pocl") == 8
     for w in (0, 8, 16):
         monkeypatch.setenv("TEXRAY_PACKET", str(w))
         assert trace_packet_width(tri, "pocl") == w
@@ -387,7 +415,7 @@ def test_renders_choose_packets_by_samples_per_launch(device, monkeypatch):
     assert tx.render(scene, 16, 12, 3, device=device, adaptive=0.1).stats["packet"] == width
     assert tx.render(scene, 16, 12, 64, device=device, adaptive=0.1).stats["packet"] == width
     assert tx.render(tx.load_scene(tx_scene("bench/globe.toml")), 16, 12, 16, device=device).stats["packet"] == width
-    assert tx.render(scene, 16, 12, 16, device=device, shadows=False).stats["packet"] == 0
+    assert tx.render(scene, 16, 12, 16, device=device, shadows=False).stats["packet"] == width
 
 
 # A child process: the scene rendered at 16 lanes on PoCL, its image's bytes as hex.
@@ -879,19 +907,20 @@ def test_packet_light_terms_equal_light_term(rt, rng, width, step):
 
 
 def test_avx512_rule(monkeypatch):
-    """TX_AVX512 on PoCL where the CPU has AVX-512: scenes of triangles alone, the Tracer and
-    packet programs but those with a curved shape or mesh displaced by the search (the generic
-    program among them); TEXRAY_AVX512=0 off, =1 every PoCL program; never another kind or a
+    """TX_AVX512 on PoCL where the CPU has AVX-512: the Tracer and every program but those with
+    a curved shape or mesh displaced by the search (the generic program among them), with or
+    without shadow rays; TEXRAY_AVX512=0 off, =1 every PoCL program; never another kind or a
     CPU without it."""
     from texray.device import features
     tri = Features(shadows=True, triangles=True, textures=True, vertex_normals=True)
     mix = Features(shadows=True, triangles=True, spheres=True, quads=True, textures=True)
     planet = Features(shadows=True, triangles=False, displacement=True, displaced_curved_search=True)
-    flat = Features(shadows=False, triangles=False, quads=True, textures=True)     # no packets
+    flat = Features(shadows=False, triangles=False, quads=True, textures=True)     # no shadow rays
     monkeypatch.delenv("TEXRAY_AVX512", raising=False)
     monkeypatch.setattr(features, "cpu_avx512", lambda: True)
     assert features.avx512(tri, "pocl") and features.avx512(mix, "pocl")
-    assert not features.avx512(planet, "pocl") and not features.avx512(flat, "pocl")
+    assert not features.avx512(planet, "pocl") and features.avx512(flat, "pocl")
+    assert not features.avx512(dataclasses.replace(planet, shadows=False), "pocl")
     assert not features.avx512(Features.generic(), "pocl")
     assert features.avx512(dataclasses.replace(planet, displaced_curved_search=False), "pocl")
     assert features.avx512(planet, "pocl", rays=True) and features.avx512(flat, "pocl", rays=True)
@@ -1069,3 +1098,4 @@ def test_packet_shadow_origins_equal_shadow_origin(rt, rng, width):
     o = out_s[live, :3]
     assert (np.abs(o[kind[live] == 2]) == np.float32(1e-45)).any()
     assert np.isinf(o).any() and np.isnan(o).any() and (live.sum() > n // 2)
+

@@ -136,23 +136,16 @@ TRACE_PACKET_WIDTHS = {"pocl": 8}
 # for rays): textured meshes 0.92, the Tracer's primary rays 1.05 times the rate at 8 lanes
 # (shadow rays equal), but brick wall 1.05-1.10, grazing quad 1.02, globe 0.98: the lane-by-lane
 # surface code (bump mapping, texel lookups) ran slower. So scenes of triangles alone
-# (:func:`triangles_only`) and the Tracer took it, the others not. Once the surfaces were
+# (triangles_only, then) and the Tracer took it, the others not. Once the surfaces were
 # packets too (kernels/shading/surface_packet.h), the others gained as well (2026-12-07, the
 # same machine and A/B, TEXRAY_AVX512=1 against the rule then, medians of 3-5 interleaved rounds
 # of 5-7 frames, 512x256 at 4 spp): grazing quad 0.80, globe 0.91, brick wall 0.94, bumped globe
 # 0.96, mixed 0.94, showcase 0.995, displaced wall 0.87, terrain 0.90, scenes/displacement's brick
 # wall 0.84 and curved maxmip 0.89 (384x288); but the planet 1.29 and the torus 1.035 (384x288):
 # a sphere or mesh displaced by the search (geometry/displace.h's lane-by-lane march) ran slower.
-# So every packet program takes it but those (Features.displaced_curved_search); programs
-# without packets (no shadow rays) as before: triangles alone.
+# So every packet program takes it but those (Features.displaced_curved_search), since
+# 2026-12-07 those without shadow rays too (they have packets now).
 PACKET_MIN_SAMPLES = 4        # the samples per launch the rules assume when not told
-
-
-def triangles_only(f: Features) -> bool:
-    """Whether triangles are the scene's only primitives (no other kind, no displacement, no
-    instances): the scenes whose programs take AVX-512 on PoCL (:func:`avx512`)."""
-    return f.triangles and not (f.spheres or f.cylinders or f.quads or f.displacement or f.displaced_meshes
-                                or f.instances)
 
 
 def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES,
@@ -161,9 +154,10 @@ def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN
     (``texray.device.opencl``'s kinds) whose fused launches sum ``samples`` samples per
     pixel: the kind's width from :data:`PACKET_WIDTHS` (:data:`TRACE_PACKET_WIDTHS` with
     ``rays``: a program tracing batches of rays, :func:`trace_packet_width`) at any count (:func:`pixels_per_item`
-    fills the lanes), with shadow rays; else 0 (no packets). ``TEXRAY_PACKET`` (0, 8 or 16)
+    fills the lanes), with or without shadow rays; else 0 (no packets). ``TEXRAY_PACKET`` (0, 8 or 16)
     overrides the rule for A/B runs. The images are the same whatever the width (accel/packet.h says when a
-    closest hit may differ: within rounding of another hit; no scene's image did)."""
+    closest hit may differ: within rounding of another hit; of every scene at 80x60, 3 and 16 spp,
+    3 pixels of scenes/displacement/torus_search.toml at 16 spp, by 9e-8)."""
     override = os.environ.get("TEXRAY_PACKET")
     if override is not None and override.strip() != "":
         if override.strip() not in ("0", "8", "16"):
@@ -171,7 +165,7 @@ def packet_width(f: Features, device_kind: str | None, samples: int = PACKET_MIN
         width = int(override)
     else:
         width = (TRACE_PACKET_WIDTHS if rays else PACKET_WIDTHS).get(device_kind, 0)
-    return width if f.shadows else 0
+    return width
 
 
 @lru_cache(maxsize=1)
@@ -200,7 +194,7 @@ def avx512(f: Features, device_kind: str | None, rays: bool = False) -> bool:
         raise DeviceError(f"TEXRAY_AVX512: expected 0 or 1, got {override!r}")
     if device_kind != "pocl" or override == "0" or not cpu_avx512():
         return False
-    return override == "1" or rays or triangles_only(f) or (f.shadows and not f.displaced_curved_search)
+    return override == "1" or rays or not f.displaced_curved_search
 
 
 def trace_packet_width(f: Features, device_kind: str | None) -> int:
