@@ -298,6 +298,23 @@ static __attribute__((noinline)) void turn_toward_packet(pfloat3* ap, const pflo
 }
 #endif
 
+#if TX_VERTEX_NORMALS
+/* terminator_lift (shading/terminator.h) lane by lane: the same operations in the same
+ * order, dot3 contracted as core/common.h compiles it (pf3_dot), the rest not (this file's
+ * FP_CONTRACT OFF, as terminator.h's), so each lane's lift is terminator_lift's bit for bit. */
+static inline __attribute__((always_inline)) pfloat3 terminator_lift_packet(pfloat3 p, pfloat3 p0, pfloat3 p1,
+                                                                            pfloat3 p2, pfloat3 n0, pfloat3 n1,
+                                                                            pfloat3 n2, pfloat b0, pfloat b1, pfloat b2)
+{
+    pfloat zero = (pfloat)(0.0f);
+    pfloat d0 = PMIN(zero, pf3_dot(pf3_sub(p, p0), n0));
+    pfloat d1 = PMIN(zero, pf3_dot(pf3_sub(p, p1), n1));
+    pfloat d2 = PMIN(zero, pf3_dot(pf3_sub(p, p2), n2));
+    pfloat3 s = pf3_add(pf3_add(pf3_scale(b0 * d0, n0), pf3_scale(b1 * d1, n1)), pf3_scale(b2 * d2, n2));
+    return pf3(-s.x, -s.y, -s.z);
+}
+#endif
+
 /* The lanes' material terms, one read per lane (mat: each lane's material): out of line, as
  * packets whose lanes have several materials are few. */
 #if TX_BUMP
@@ -387,6 +404,7 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
      * triangle has them: surface_geometry), bumped */
     pfloat3 n_out = ng0;
 #if TX_VERTEX_NORMALS
+    pfloat3 lift = pf3((pfloat)(0.0f), (pfloat)(0.0f), (pfloat)(0.0f));   /* the shadow-ray lift */
     int vn[TX_PACKET], anyn = 0;                 /* lanes on a triangle with vertex normals */
     for (uint j = 0; j < (uint)TX_PACKET; ++j) {
         vn[j] = lanes[j] && hk[j] == (int)PRIM_TRIANGLE && (tri_shade[pidx[j]].flags & TRI_HAS_NORMALS);
@@ -399,8 +417,14 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
         pfloat b0 = 1.0f - b1 - b2;
         float nl[9][TX_PACKET];                  /* the three vertex normals, lane by lane */
         for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+            /* the three indices read once, each normal's three floats from them (a loop over
+             * the nine floats, c / 3 and c % 3, read the indices again for each: a fifth of
+             * render_fused_body's time on the textured meshes, perf) */
             __global const TriShade* ts = tri_shade + pidx[vn[j] ? j : kn];
-            for (int c = 0; c < 9; ++c) nl[c][j] = normals[3u * ts->v[c / 3] + (uint)(c % 3)];
+            uint i0 = 3u * ts->v[0], i1 = 3u * ts->v[1], i2 = 3u * ts->v[2];
+            nl[0][j] = normals[i0]; nl[1][j] = normals[i0 + 1u]; nl[2][j] = normals[i0 + 2u];
+            nl[3][j] = normals[i1]; nl[4][j] = normals[i1 + 1u]; nl[5][j] = normals[i1 + 2u];
+            nl[6][j] = normals[i2]; nl[7][j] = normals[i2 + 1u]; nl[8][j] = normals[i2 + 2u];
         }
         pfloat3 n0 = pf3(PLOAD(nl[0]), PLOAD(nl[1]), PLOAD(nl[2]));
         pfloat3 n1 = pf3(PLOAD(nl[3]), PLOAD(nl[4]), PLOAD(nl[5]));
@@ -409,6 +433,24 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
         use_vn = ((pint)(TX_LANES(vn)) != 0) & (pf3_dot(raw, raw) > 0.0f) & pf3_finite(raw);
         lift_vn = use_vn & (pf3_dot(raw, dir) < 0.0f);        /* seen from the normals' side */
         n_out = pf3_sel(use_vn, pf3_normalize3(raw), n_out);
+        if (any(lift_vn)) {
+            /* surface_geometry's shadow-ray lift (shading/terminator.h) for the lanes lift_vn:
+             * their triangles' corners and the unit vertex normals, as vectors */
+            float cl[9][TX_PACKET];
+            for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+                __global const TriVerts* tv = tris + pidx[vn[j] ? j : kn];
+                float3 a = tri_p0(tv), b = tri_p1(tv), c = tri_p2(tv);
+                cl[0][j] = a.x; cl[1][j] = a.y; cl[2][j] = a.z;
+                cl[3][j] = b.x; cl[4][j] = b.y; cl[5][j] = b.z;
+                cl[6][j] = c.x; cl[7][j] = c.y; cl[8][j] = c.z;
+            }
+            pfloat3 q0 = pf3(PLOAD(cl[0]), PLOAD(cl[1]), PLOAD(cl[2]));
+            pfloat3 q1 = pf3(PLOAD(cl[3]), PLOAD(cl[4]), PLOAD(cl[5]));
+            pfloat3 q2 = pf3(PLOAD(cl[6]), PLOAD(cl[7]), PLOAD(cl[8]));
+            pfloat3 l = terminator_lift_packet(p, q0, q1, q2, pf3_normalize3(n0), pf3_normalize3(n1),
+                                               pf3_normalize3(n2), b0, b1, b2);
+            lift = pf3_sel(lift_vn, l, lift);
+        }
     }
 #endif
 #if TX_BUMP
@@ -461,10 +503,11 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
     pint valid = pf3_finite(p) & pf3_finite(ng) & pf3_finite(ns) & pf3_finite(ks);
     pfloat off = pf3_dot(pf3_abs(ng), perr);                   /* dot3(abs3(ng), perr) */
     float o[20][TX_PACKET];
-    int vl[TX_PACKET], ll[TX_PACKET];
+    int vl[TX_PACKET];
     PSTORE(valid, vl);
 #if TX_VERTEX_NORMALS
-    PSTORE(lift_vn, ll);
+    float lf[3][TX_PACKET];
+    PSTORE(lift.x, lf[0]); PSTORE(lift.y, lf[1]); PSTORE(lift.z, lf[2]);
 #endif
     PSTORE(p.x, o[0]); PSTORE(p.y, o[1]); PSTORE(p.z, o[2]); PSTORE(off, o[3]);
     PSTORE(ng.x, o[4]); PSTORE(ng.y, o[5]); PSTORE(ng.z, o[6]);
@@ -489,19 +532,11 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
         vstore3((float3)(o[4][j], o[5][j], o[6][j]), 0, r->ng);
         r->valid = 1u;
         vstore3((float3)(o[7][j], o[8][j], o[9][j]), 0, r->ns);
-        float3 lift = (float3)(0.0f);
 #if TX_VERTEX_NORMALS
-        if (ll[j]) {                             /* surface_geometry's shadow-ray lift */
-            uint idx = pidx[j];
-            __global const TriShade* ts = tri_shade + idx;
-            float b0 = 1.0f - hb1[j] - hb2[j];
-            lift = terminator_lift((float3)(o[0][j], o[1][j], o[2][j]), tri_p0(tris + idx), tri_p1(tris + idx),
-                                   tri_p2(tris + idx), normalize3(vload3(ts->v[0], normals)),
-                                   normalize3(vload3(ts->v[1], normals)), normalize3(vload3(ts->v[2], normals)),
-                                   b0, hb1[j], hb2[j]);
-        }
+        vstore3((float3)(lf[0][j], lf[1][j], lf[2][j]), 0, r->lift);
+#else
+        vstore3((float3)(0.0f), 0, r->lift);
 #endif
-        vstore3(lift, 0, r->lift);
         r->shininess = o[10][j];
         vstore3(kdj, 0, r->kd);
         vstore3((float3)(o[14][j], o[15][j], o[16][j]), 0, r->ks);

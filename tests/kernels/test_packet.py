@@ -1099,3 +1099,93 @@ def test_packet_shadow_origins_equal_shadow_origin(rt, rng, width):
     assert (np.abs(o[kind[live] == 2]) == np.float32(1e-45)).any()
     assert np.isinf(o).any() and np.isnan(o).any() and (live.sum() > n // 2)
 
+
+_LIFT_KERNEL = r"""
+#include "texray.cl"
+
+/* Lane j of work-item i: input record TX_PACKET i + j (23 floats: the point p, the corners
+ * p0, p1, p2, the vertex normals n0, n1, n2 as stored, b1, b2): terminator_lift with
+ * normalize3's unit normals (surface_geometry's call) into out_s, terminator_lift_packet with
+ * pf3_normalize3's (surface_packet's) into out_p, 3 floats each. */
+__kernel void lifts(__global const float* in, __global float* out_s, __global float* out_p, uint n)
+{
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    float c[23][TX_PACKET];
+    for (uint j = 0; j < (uint)TX_PACKET; ++j)
+        for (int k = 0; k < 23; ++k) c[k][j] = in[23 * (TX_PACKET * i + j) + k];
+#define V3(k) pf3(PLOAD(c[k]), PLOAD(c[k + 1]), PLOAD(c[k + 2]))
+    pfloat b1 = PLOAD(c[21]), b2 = PLOAD(c[22]);
+    pfloat3 l = terminator_lift_packet(V3(0), V3(3), V3(6), V3(9), pf3_normalize3(V3(12)), pf3_normalize3(V3(15)),
+                                       pf3_normalize3(V3(18)), 1.0f - b1 - b2, b1, b2);
+#undef V3
+    float o[3][TX_PACKET];
+    PSTORE(l.x, o[0]); PSTORE(l.y, o[1]); PSTORE(l.z, o[2]);
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+#define S3(k) (float3)(c[k][j], c[k + 1][j], c[k + 2][j])
+        float3 ls = terminator_lift(S3(0), S3(3), S3(6), S3(9), normalize3(S3(12)), normalize3(S3(15)),
+                                    normalize3(S3(18)), 1.0f - c[21][j] - c[22][j], c[21][j], c[22][j]);
+#undef S3
+        __global float* a = out_s + 3 * (TX_PACKET * i + j);
+        __global float* b = out_p + 3 * (TX_PACKET * i + j);
+        a[0] = ls.x; a[1] = ls.y; a[2] = ls.z;
+        b[0] = o[0][j]; b[1] = o[1][j]; b[2] = o[2][j];
+    }
+}
+"""
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+def test_packet_terminator_lift_equals_terminator_lift(rt, rng, width):
+    """terminator_lift_packet (shading/surface_packet.h: the fused kernel's shadow-ray lift on
+    smooth meshes, from pf3_normalize3's unit vertex normals) gives terminator_lift's lift of
+    normalize3's normals bit for bit: points on triangles whose normals bend toward and away
+    from the point (lifted and not), scales from 1e-6 to 1e6, far from the origin, normals not
+    unit (tiny, huge, zero), barycentrics outside [0, 1], special values and random bits."""
+    import pyopencl as cl
+    from kernel_harness import build_test_program
+    from texray.device.features import compile_options
+    if rt.kind != "pocl":
+        pytest.skip("surface packets are PoCL's (shading/surface_packet.h)")
+    n = 1 << 15
+    rec = np.zeros((n, 23), np.float32)
+    scale = 10.0 ** rng.uniform(-6, 6, (n, 1))
+    centre = rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(0, 7, (n, 1))
+    corners = centre[:, None, :] + rng.normal(size=(n, 3, 3)) * scale[:, None, :]
+    face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    face /= np.linalg.norm(face, axis=1, keepdims=True) + 1e-300
+    normals = face[:, None, :] + rng.normal(size=(n, 3, 3)) * 0.4        # bent both ways
+    normals *= 10.0 ** rng.uniform(-20, 20, (n, 3, 1))                     # not unit, some huge or tiny
+    b = rng.dirichlet((1, 1, 1), n)
+    b[::7] = rng.uniform(-0.5, 1.5, (len(b[::7]), 3))                      # outside the triangle
+    rec[:, 0:3] = np.einsum("ni,nij->nj", b, corners)
+    rec[:, 3:12] = corners.reshape(n, 9)
+    rec[:, 12:21] = normals.reshape(n, 9)
+    rec[:, 21], rec[:, 22] = b[:, 1], b[:, 2]
+    kind = np.arange(n) % 10
+    rec[kind == 1, 12:15] = 0.0                                             # a zero normal
+    k2 = kind == 2
+    special = np.float32([0.0, -0.0, np.inf, -np.inf, np.nan, 1e-45, -1e-45, 1e-40, 3.4e38, -3.4e38, 1.0])
+    rec[k2] = rng.choice(special, (k2.sum(), 23))
+    k3 = kind == 3
+    rec[k3] = rng.integers(0, 1 << 32, (k3.sum(), 23), dtype=np.uint64).astype(np.uint32).view(np.float32)
+    opts = {**compile_options(Features(triangles=True, vertex_normals=True, textures=True)), "TX_PACKET": width}
+    k = build_test_program(rt, (), _LIFT_KERNEL, [f"-D{a}={b}" for a, b in opts.items()])
+    mf = cl.mem_flags
+    bi = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=rec)
+    out_s = np.full((n, 3), np.nan, np.float32)
+    out_p = out_s.copy()
+    bs = cl.Buffer(rt.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out_s)
+    bp = cl.Buffer(rt.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out_p)
+    k.lifts(rt.queue, (n // width,), None, bi, bs, bp, np.uint32(n // width))
+    cl.enqueue_copy(rt.queue, out_s, bs)
+    cl.enqueue_copy(rt.queue, out_p, bp)
+    same = (out_p.view(np.uint32) == out_s.view(np.uint32)) | (np.isnan(out_p) & np.isnan(out_s))
+    bad = np.flatnonzero(~same.all(axis=1))
+    assert bad.size == 0, f"{bad.size} lanes differ, e.g. record {rec[bad[0]]!r}: {out_p[bad[0]]!r} " \
+                          f"against {out_s[bad[0]]!r}"
+    # the cases happened: lifted (a nonzero finite lift) and not, on ordinary records
+    plain = kind >= 4
+    lifted = np.all(np.isfinite(out_s), axis=1) & np.any(out_s != 0, axis=1)
+    assert (lifted & plain).sum() > 3000 and (~lifted & plain).sum() > 3000
+    assert np.isnan(out_s).any()
