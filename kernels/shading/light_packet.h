@@ -21,29 +21,13 @@
 #if TX_PACKET && TX_POCL
 #define TX_LIGHT_PACKET 1
 
-/* c[j] += light_term(s + j, v[j], lpos[j], li[j * li_step]) for every lane j < m with vis[j]
- * (li_step 0: one intensity for every lane). Lanes past m read lane m - 1's inputs; lanes
- * not visible (a miss among them) compute from whatever their records hold, masked off. */
-inline void light_term_packet(const Surface* s, const float3* v, const float3* lpos, const float3* li, uint li_step,
-                              const uchar* vis, uint m, float3* c)
+/* light_term for every lane of ok as vectors: the surface point p, its shading normal nrm,
+ * kd, ks and shininess, the view vector v, the light lp with its intensity in; the term in
+ * the lanes of ok where light_term's is not 0, 0 in every other lane. */
+static inline __attribute__((always_inline)) pfloat3 light_term_lanes(pfloat3 p, pfloat3 nrm, pfloat3 kd, pfloat3 ks,
+                                                                      pfloat shin, pfloat3 v, pfloat3 lp, pfloat3 in,
+                                                                      pint ok)
 {
-    if (m == 0u) return;
-#define TX_LT_J(j) TX_MIN((uint)(j), m - 1u)
-#define TX_LT_VIS(j) (vis[TX_LT_J(j)] ? -1 : 0)
-    pint ok = (pint)PGATHER(TX_LT_VIS);
-    if (!any(ok)) return;
-/* a Surface field's three floats, a float3 array's elements and the intensities as pfloat3s */
-#define TX_LT_SF(j, f) s[TX_LT_J(j)].f
-#define TX_LT_S3(f) PGATHER_F3(TX_LT_SF, f)
-#define TX_LT_AX(j, a) a[TX_LT_J(j)].x
-#define TX_LT_AY(j, a) a[TX_LT_J(j)].y
-#define TX_LT_AZ(j, a) a[TX_LT_J(j)].z
-#define TX_LT_A3(a) pf3((pfloat)PGATHER_A(TX_LT_AX, a), (pfloat)PGATHER_A(TX_LT_AY, a), (pfloat)PGATHER_A(TX_LT_AZ, a))
-#define TX_LT_IX(j, a) a[TX_LT_J(j) * li_step].x
-#define TX_LT_IY(j, a) a[TX_LT_J(j) * li_step].y
-#define TX_LT_IZ(j, a) a[TX_LT_J(j) * li_step].z
-    pfloat3 p = TX_LT_S3(p), nrm = TX_LT_S3(ns), lp = TX_LT_A3(lpos);
-    pfloat3 in = pf3((pfloat)PGATHER_A(TX_LT_IX, li), (pfloat)PGATHER_A(TX_LT_IY, li), (pfloat)PGATHER_A(TX_LT_IZ, li));
     /* light_term's degenerate cases (shading/light.h), as lane masks */
     ok &= pf3_finite(in);
     pfloat3 l = pf3_sub(lp, p);
@@ -62,23 +46,71 @@ inline void light_term_packet(const Surface* s, const float3* v, const float3* l
     ok &= ndl > 0.0f;
     pfloat3 term = pf3_splat((float3)(0.0f));
     if (any(ok)) {
-        term = pf3_scale(ndl, TX_LT_S3(kd));
+        term = pf3_scale(ndl, kd);
         if (TX_SPECULAR) {
             pfloat3 r = pf3_sub(pf3_scale(2.0f * ndl, nrm), l);
-            pfloat rv = pf3_dot(r, TX_LT_A3(v));
+            pfloat rv = pf3_dot(r, v);
             pint spec = ok & (rv > 0.0f);
             if (any(spec)) {
-                pfloat sp = pf_exp2((pfloat)PGATHER_A(TX_LT_SF, shininess) * pf_log2(rv));
+                pfloat sp = pf_exp2(shin * pf_log2(rv));
                 spec &= (sp >= 0.0f) & (sp <= FLT_MAX);
-                term = pf3_sel(spec, pf3_add(term, pf3_scale(sp, TX_LT_S3(ks))), term);
+                term = pf3_sel(spec, pf3_add(term, pf3_scale(sp, ks)), term);
             }
         }
     }
+    /* 0 where light_term returns 0 (as the scalar code adds it) */
+    return pf3(PSEL_F(ok, in.x * (term.x / d2), (pfloat)(0.0f)), PSEL_F(ok, in.y * (term.y / d2), (pfloat)(0.0f)),
+               PSEL_F(ok, in.z * (term.z / d2), (pfloat)(0.0f)));
+}
+
+/* The lights lpos[j] and intensities li[j * li_step] (li_step 0: one for every lane) of lanes
+ * 0 .. TX_PACKET - 1 as vectors, lanes past m reading lane m - 1's. */
+inline void light_lanes(const float3* lpos, const float3* li, uint li_step, uint m, pfloat3* lp, pfloat3* in)
+{
+#define TX_LT_J(j) TX_MIN((uint)(j), m - 1u)
+#define TX_LT_AX(j, a) a[TX_LT_J(j)].x
+#define TX_LT_AY(j, a) a[TX_LT_J(j)].y
+#define TX_LT_AZ(j, a) a[TX_LT_J(j)].z
+#define TX_LT_IX(j, a) a[TX_LT_J(j) * li_step].x
+#define TX_LT_IY(j, a) a[TX_LT_J(j) * li_step].y
+#define TX_LT_IZ(j, a) a[TX_LT_J(j) * li_step].z
+    *lp = pf3((pfloat)PGATHER_A(TX_LT_AX, lpos), (pfloat)PGATHER_A(TX_LT_AY, lpos), (pfloat)PGATHER_A(TX_LT_AZ, lpos));
+    *in = pf3((pfloat)PGATHER_A(TX_LT_IX, li), (pfloat)PGATHER_A(TX_LT_IY, li), (pfloat)PGATHER_A(TX_LT_IZ, li));
+#undef TX_LT_J
+#undef TX_LT_AX
+#undef TX_LT_AY
+#undef TX_LT_AZ
+#undef TX_LT_IX
+#undef TX_LT_IY
+#undef TX_LT_IZ
+}
+
+/* c[j] += light_term(s + j, v[j], lpos[j], li[j * li_step]) for every lane j < m with vis[j]
+ * (li_step 0: one intensity for every lane): the records gathered into vectors for
+ * light_term_lanes. Lanes past m read lane m - 1's inputs; lanes not visible (a miss among
+ * them) compute from whatever their records hold, masked off. */
+inline void light_term_packet(const Surface* s, const float3* v, const float3* lpos, const float3* li, uint li_step,
+                              const uchar* vis, uint m, float3* c)
+{
+    if (m == 0u) return;
+#define TX_LT_J(j) TX_MIN((uint)(j), m - 1u)
+#define TX_LT_VIS(j) (vis[TX_LT_J(j)] ? -1 : 0)
+    pint ok = (pint)PGATHER(TX_LT_VIS);
+    if (!any(ok)) return;
+/* a Surface field's three floats and a float3 array's elements as pfloat3s */
+#define TX_LT_SF(j, f) s[TX_LT_J(j)].f
+#define TX_LT_S3(f) PGATHER_F3(TX_LT_SF, f)
+#define TX_LT_AX(j, a) a[TX_LT_J(j)].x
+#define TX_LT_AY(j, a) a[TX_LT_J(j)].y
+#define TX_LT_AZ(j, a) a[TX_LT_J(j)].z
+    pfloat3 lp, in;
+    light_lanes(lpos, li, li_step, m, &lp, &in);
+    pfloat3 vv = pf3((pfloat)PGATHER_A(TX_LT_AX, v), (pfloat)PGATHER_A(TX_LT_AY, v), (pfloat)PGATHER_A(TX_LT_AZ, v));
+    pfloat3 t = light_term_lanes(TX_LT_S3(p), TX_LT_S3(ns), TX_LT_S3(kd), TX_LT_S3(ks),
+                                 (pfloat)PGATHER_A(TX_LT_SF, shininess), vv, lp, in, ok);
     /* every visible lane adds its term, 0 where light_term returns 0 (as the scalar code adds) */
     float o[3][TX_PACKET];
-    PSTORE(PSEL_F(ok, in.x * (term.x / d2), (pfloat)(0.0f)), o[0]);
-    PSTORE(PSEL_F(ok, in.y * (term.y / d2), (pfloat)(0.0f)), o[1]);
-    PSTORE(PSEL_F(ok, in.z * (term.z / d2), (pfloat)(0.0f)), o[2]);
+    PSTORE(t.x, o[0]); PSTORE(t.y, o[1]); PSTORE(t.z, o[2]);
     for (uint j = 0; j < m; ++j)
         if (vis[j]) c[j] += (float3)(o[0][j], o[1][j], o[2][j]);
 #undef TX_LT_J
@@ -88,10 +120,6 @@ inline void light_term_packet(const Surface* s, const float3* v, const float3* l
 #undef TX_LT_AX
 #undef TX_LT_AY
 #undef TX_LT_AZ
-#undef TX_LT_A3
-#undef TX_LT_IX
-#undef TX_LT_IY
-#undef TX_LT_IZ
 }
 #else
 #define TX_LIGHT_PACKET 0

@@ -63,11 +63,24 @@ typedef struct {
     pint valid;
 } ShadowLanes;
 
+/* shadow_origin for surface points as vectors (their p, lift, ng, ns, offset; the lanes of
+ * valid have records): the same operations in the same order (the dot product and
+ * offset_point contracted as in core/common.h: accel/packet_vec.h), so each lane's origin is
+ * shadow_origin's bit for bit. */
+static inline __attribute__((always_inline)) void shadow_origins_lanes(pfloat3 p, pfloat3 lift, pfloat3 ng,
+                                                                       pfloat3 ns, pfloat offset, pint valid,
+                                                                       ShadowLanes* out)
+{
+    pint lifted = pf3_dot(lift, lift) > 16.0f * offset * offset;     /* shadow_origin's test */
+    out->o = pf3_offset_point(pf3_add(p, lift), ng, offset);
+    out->n = pf3_sel(lifted, ns, ng);
+    out->valid = valid;
+}
+
 /* shadow_origin for the m <= TX_PACKET surface points s[0..m) as one vector computation:
- * each lane's record gathered straight into vectors (lanes past m read lane m - 1's), the
- * same operations in the same order (the dot product and offset_point contracted as in
- * core/common.h: accel/packet_vec.h), so each lane's origin is shadow_origin's bit for bit.
- * Lanes whose record is not valid compute on whatever it holds and are masked off. */
+ * each lane's record gathered straight into vectors (lanes past m read lane m - 1's) for
+ * shadow_origins_lanes. Lanes whose record is not valid compute on whatever it holds and are
+ * masked off. */
 inline void shadow_origins_packet(const Surface* s, uint m, ShadowLanes* out)
 {
 #define TX_SO(j, f) s[TX_MIN((uint)(j), m - 1u)].f
@@ -76,10 +89,7 @@ inline void shadow_origins_packet(const Surface* s, uint m, ShadowLanes* out)
     pfloat offset = (pfloat)PGATHER_A(TX_SO, offset);
     pint valid = as_pint((puint)PGATHER_A(TX_SO, valid)) != 0;
 #undef TX_SO
-    pint lifted = pf3_dot(lift, lift) > 16.0f * offset * offset;     /* shadow_origin's test */
-    out->o = pf3_offset_point(pf3_add(p, lift), ng, offset);
-    out->n = pf3_sel(lifted, ns, ng);
-    out->valid = valid;
+    shadow_origins_lanes(p, lift, ng, ns, offset, valid, out);
 }
 
 /* light_visible for the m <= TX_PACKET surface points s[0..m) with their shadow origins

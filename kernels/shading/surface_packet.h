@@ -38,6 +38,10 @@
 #else
 #define TX_SURFACE_PACKET_ONLY 0
 #endif
+/* Where every hit is the packet's and the light terms are packets too (PoCL), the fused
+ * kernel shades the chunk from surface_packet's vectors (SurfLanes) and writes no records
+ * (stages/fused.cl); elsewhere surface_records writes them for the records' path. */
+#define TX_SURF_LANES (TX_SURFACE_PACKET_ONLY && TX_LIGHT_PACKET)
 
 #if TX_SURFACE_PACKET
 #pragma OPENCL FP_CONTRACT OFF
@@ -343,15 +347,22 @@ static __attribute__((noinline)) void material_gather_packet(__global const Mate
     for (uint j = 0; j < (uint)TX_PACKET; ++j) { dtex[j] = materials[mat[j]].diffuse_tex; btex[j] = materials[mat[j]].bump_tex; }
 }
 
-/* surface_eval of lane j's ray and hit into s[j] for the lanes j of `lanes` (hits on a sphere,
- * quad or triangle, whose geometry the packet left in gl), and vout[j] = -normalize3(dir)
- * where the record is valid. hk, pidx, hb1, hb2: the lanes' hit kinds, primitive indices and
- * barycentrics. */
+/* A packet's surfaces (surface_packet): surface_eval's record fields, one vector each, and
+ * the view vector wo = -normalize3(dir); valid: the lanes with a record (a hit the packet
+ * evaluated, every field finite), 0 in every other lane, whose fields are any numbers. */
+typedef struct {
+    pfloat3 p, ng, ns, kd, ks, wo, lift;
+    pfloat offset, shin;
+    pint valid;
+} SurfLanes;
+
+/* surface_eval of lane j's ray and hit for the lanes j of `lanes` (hits on a sphere, quad or
+ * triangle, whose geometry the packet left in gl) into *sv. hk, pidx, hb1, hb2: the lanes'
+ * hit kinds, primitive indices and barycentrics. */
 static inline __attribute__((always_inline)) void surface_packet(const PacketRay* pr, const int* lanes,
                                                                  const int* hk, const uint* pidx, const float* hb1,
                                                                  const float* hb2, const GeomLanes* gl,
-                                                                 TX_GEOM_PARAMS, TX_SURFACE_PARAMS, Surface* s,
-                                                                 float3* vout)
+                                                                 TX_GEOM_PARAMS, TX_SURFACE_PARAMS, SurfLanes* sv)
 {
     /* the geometry and the material, one lane each */
     int mat[TX_PACKET];
@@ -479,66 +490,80 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
     pfloat bound2 = PMIN((pfloat)(TX_NORMAL_MIN_COS), PMAX(cw, (pfloat)(0.0f)));
     turn_toward_packet(&ns, &wo, &bound2);
 #endif
-    /* the material (surface_material): kd through the diffuse texture, whose taps and weights
-     * are computed here and blended lane by lane below (as texture_bilinear_level's float4
-     * arithmetic: the same floats), straight into the record */
-    int mt[TX_PACKET], anyt = 0, ti00[TX_PACKET], ti10[TX_PACKET], ti01[TX_PACKET], ti11[TX_PACKET];
-    float tax[TX_PACKET], tay[TX_PACKET];
+    /* the material (surface_material): kd through the diffuse texture, its four taps read lane
+     * by lane and blended as vectors (texture_bilinear_level's float4 arithmetic per component,
+     * contraction off as there: the same floats) */
+    pint textured = (pint)(0);
     if (TX_TEXTURES) {
+        int mt[TX_PACKET], anyt = 0;
         for (uint j = 0; j < (uint)TX_PACKET; ++j) { mt[j] = lanes[j] && dtex[j] >= 0; anyt |= mt[j]; }
         if (anyt) {
-            for (uint j = 0; j < (uint)TX_PACKET; ++j) if (!mt[j]) dtex[j] = dtex[packet_first_lane(mt)];
+            uint kt = packet_first_lane(mt);
+            for (uint j = 0; j < (uint)TX_PACKET; ++j) if (!mt[j]) dtex[j] = dtex[kt];
             TexPacket dt;
             tex_packet(textures, dtex, mt, &dt);
-            pfloat su, sv;
-            uv_transform_packet(&dt, u, v, &su, &sv);
+            pfloat su, sv_;
+            uv_transform_packet(&dt, u, v, &su, &sv_);
             pint i00, i10, i01, i11;
             pfloat ax, ay;
-            bilinear_taps_packet(&dt, &su, &sv, mt, &i00, &i10, &i01, &i11, &ax, &ay);
-            PSTORE(i00, ti00); PSTORE(i10, ti10); PSTORE(i01, ti01); PSTORE(i11, ti11);
-            PSTORE(ax, tax); PSTORE(ay, tay);
+            bilinear_taps_packet(&dt, &su, &sv_, mt, &i00, &i10, &i01, &i11, &ax, &ay);
+            int ti[4][TX_PACKET];
+            PSTORE(i00, ti[0]); PSTORE(i10, ti[1]); PSTORE(i01, ti[2]); PSTORE(i11, ti[3]);
+            float tc[12][TX_PACKET];                 /* tap k's red, green, blue at 3 k .. 3 k + 2 */
+            for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+                uint jj = mt[j] ? j : kt;            /* other lanes read a textured lane's taps */
+                for (int k = 0; k < 4; ++k) {
+                    float4 t = vload_half4((uint)ti[k][jj], texels);
+                    tc[3 * k][j] = t.x; tc[3 * k + 1][j] = t.y; tc[3 * k + 2][j] = t.z;
+                }
+            }
+            pfloat bx = 1.0f - ax, by = 1.0f - ay;
+#define TX_BLEND(c) ((PLOAD(tc[c]) * bx + PLOAD(tc[3 + c]) * ax) * by + (PLOAD(tc[6 + c]) * bx + PLOAD(tc[9 + c]) * ax) * ay)
+            pfloat3 blend = pf3(TX_BLEND(0), TX_BLEND(1), TX_BLEND(2));
+#undef TX_BLEND
+            textured = (pint)(TX_LANES(mt)) != 0;
+            kd = pf3_sel(textured, pf3(kd.x * blend.x, kd.y * blend.y, kd.z * blend.z), kd);
         }
     }
     /* the record (surface_write) */
-    pint valid = pf3_finite(p) & pf3_finite(ng) & pf3_finite(ns) & pf3_finite(ks);
-    pfloat off = pf3_dot(pf3_abs(ng), perr);                   /* dot3(abs3(ng), perr) */
-    float o[20][TX_PACKET];
-    int vl[TX_PACKET];
-    PSTORE(valid, vl);
+    sv->valid = ((pint)(TX_LANES(lanes)) != 0) & pf3_finite(p) & pf3_finite(ng) & pf3_finite(ns) & pf3_finite(ks)
+              & pf3_finite(kd);
+    sv->offset = pf3_dot(pf3_abs(ng), perr);                   /* dot3(abs3(ng), perr) */
+    sv->p = p; sv->ng = ng; sv->ns = ns; sv->kd = kd; sv->ks = ks; sv->shin = shin; sv->wo = wo;
 #if TX_VERTEX_NORMALS
-    float lf[3][TX_PACKET];
-    PSTORE(lift.x, lf[0]); PSTORE(lift.y, lf[1]); PSTORE(lift.z, lf[2]);
+    sv->lift = lift;
+#else
+    sv->lift = pf3((pfloat)(0.0f), (pfloat)(0.0f), (pfloat)(0.0f));
 #endif
-    PSTORE(p.x, o[0]); PSTORE(p.y, o[1]); PSTORE(p.z, o[2]); PSTORE(off, o[3]);
-    PSTORE(ng.x, o[4]); PSTORE(ng.y, o[5]); PSTORE(ng.z, o[6]);
-    PSTORE(ns.x, o[7]); PSTORE(ns.y, o[8]); PSTORE(ns.z, o[9]); PSTORE(shin, o[10]);
-    PSTORE(kd.x, o[11]); PSTORE(kd.y, o[12]); PSTORE(kd.z, o[13]);
-    PSTORE(ks.x, o[14]); PSTORE(ks.y, o[15]); PSTORE(ks.z, o[16]);
-    PSTORE(wo.x, o[17]); PSTORE(wo.y, o[18]); PSTORE(wo.z, o[19]);
+}
+
+/* surface_packet's surfaces as the records s[j] and vout[j] = wo of the lanes j of `lanes`
+ * (valid 0 where the lane's surface is not valid; the other lanes' records untouched). */
+inline void surface_records(const SurfLanes* sv, const int* lanes, Surface* s, float3* vout)
+{
+    float o[23][TX_PACKET];
+    int vl[TX_PACKET];
+    PSTORE(sv->valid, vl);
+    PSTORE(sv->p.x, o[0]); PSTORE(sv->p.y, o[1]); PSTORE(sv->p.z, o[2]); PSTORE(sv->offset, o[3]);
+    PSTORE(sv->ng.x, o[4]); PSTORE(sv->ng.y, o[5]); PSTORE(sv->ng.z, o[6]);
+    PSTORE(sv->ns.x, o[7]); PSTORE(sv->ns.y, o[8]); PSTORE(sv->ns.z, o[9]); PSTORE(sv->shin, o[10]);
+    PSTORE(sv->kd.x, o[11]); PSTORE(sv->kd.y, o[12]); PSTORE(sv->kd.z, o[13]);
+    PSTORE(sv->ks.x, o[14]); PSTORE(sv->ks.y, o[15]); PSTORE(sv->ks.z, o[16]);
+    PSTORE(sv->wo.x, o[17]); PSTORE(sv->wo.y, o[18]); PSTORE(sv->wo.z, o[19]);
+    PSTORE(sv->lift.x, o[20]); PSTORE(sv->lift.y, o[21]); PSTORE(sv->lift.z, o[22]);
     #pragma nounroll
     for (uint j = 0; j < (uint)TX_PACKET; ++j) {
         if (!lanes[j]) continue;
         Surface* r = s + j;
-        float3 kdj = (float3)(o[11][j], o[12][j], o[13][j]);
-        if (TX_TEXTURES && anyt && mt[j]) {
-            float4 t00 = vload_half4((uint)ti00[j], texels), t10 = vload_half4((uint)ti10[j], texels);
-            float4 t01 = vload_half4((uint)ti01[j], texels), t11 = vload_half4((uint)ti11[j], texels);
-            float ax = tax[j], ay = tay[j];
-            kdj *= ((t00 * (1.0f - ax) + t10 * ax) * (1.0f - ay) + (t01 * (1.0f - ax) + t11 * ax) * ay).xyz;
-        }
-        if (!vl[j] || !finite3(kdj)) { r->valid = 0u; continue; }
+        if (!vl[j]) { r->valid = 0u; continue; }
         vstore3((float3)(o[0][j], o[1][j], o[2][j]), 0, r->p);
         r->offset = o[3][j];
         vstore3((float3)(o[4][j], o[5][j], o[6][j]), 0, r->ng);
         r->valid = 1u;
         vstore3((float3)(o[7][j], o[8][j], o[9][j]), 0, r->ns);
-#if TX_VERTEX_NORMALS
-        vstore3((float3)(lf[0][j], lf[1][j], lf[2][j]), 0, r->lift);
-#else
-        vstore3((float3)(0.0f), 0, r->lift);
-#endif
+        vstore3((float3)(o[20][j], o[21][j], o[22][j]), 0, r->lift);
         r->shininess = o[10][j];
-        vstore3(kdj, 0, r->kd);
+        vstore3((float3)(o[11][j], o[12][j], o[13][j]), 0, r->kd);
         vstore3((float3)(o[14][j], o[15][j], o[16][j]), 0, r->ks);
         vout[j] = (float3)(o[17][j], o[18][j], o[19][j]);
     }

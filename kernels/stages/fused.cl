@@ -211,10 +211,18 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #if TX_SURFACE_PACKET
         /* their surfaces as one vector computation too (shading/surface_packet.h); the loop
          * below evaluates the other lanes */
+        SurfLanes sv;
         if (any(pre_lanes)) {
             int hkl[TX_CHUNK];
             PSTORE(hit_kind, hkl);
-            surface_packet(&pr, has_pre, hkl, pidx, hb1, hb2, &glanes, TX_GEOM_ARGS, TX_SURFACE_ARGS, s, v);
+            surface_packet(&pr, has_pre, hkl, pidx, hb1, hb2, &glanes, TX_GEOM_ARGS, TX_SURFACE_ARGS, &sv);
+#if !TX_SURF_LANES
+            surface_records(&sv, has_pre, s, v);     /* read back as records below */
+#endif
+        } else {                                     /* no surfaces: every lane a miss */
+            pfloat3 z = pf3_splat((float3)(0.0f));
+            sv.p = z; sv.ng = z; sv.ns = z; sv.kd = z; sv.ks = z; sv.wo = z; sv.lift = z;
+            sv.offset = (pfloat)(0.0f); sv.shin = (pfloat)(0.0f); sv.valid = (pint)(0);
         }
 #endif
 #undef TX_GEOM_AOS
@@ -252,6 +260,55 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #undef TX_PRE_GEOM
             if (s[j].valid) v[j] = -normalize3(dir);
         }
+#if TX_SURF_LANES
+        /* Every hit is the packet's (shading/surface_packet.h TX_SURF_LANES): the chunk's
+         * colours, shadow origins and light terms computed from its surfaces as vectors,
+         * without records: the same operations per lane as the records' path below */
+        pfloat3 cv = pf3_sel(sv.valid, pf3(ambient.x * sv.kd.x, ambient.y * sv.kd.y, ambient.z * sv.kd.z),
+                             pf3_splat(background.xyz));
+        ShadowLanes sl;
+        if (nlights)
+            shadow_origins_lanes(sv.p, sv.lift, sv.ng, sv.ns, sv.offset, sv.valid, &sl);
+        /* cv += light_term where the light at lp_ (intensity li_, li_step_) is visible (vis) */
+#define TX_VIS_J(j) (vis[TX_MIN((uint)(j), m - 1u)] ? -1 : 0)
+#define TX_ADD_LIGHT(lp_, li_, li_step_) do { \
+            pfloat3 lpv_, inv_; \
+            light_lanes(lp_, li_, li_step_, m, &lpv_, &inv_); \
+            pint vm_ = (pint)PGATHER(TX_VIS_J); \
+            if (any(vm_)) \
+                cv = pf3_sel(vm_, pf3_add(cv, light_term_lanes(sv.p, sv.ns, sv.kd, sv.ks, sv.shin, sv.wo, lpv_, \
+                                                               inv_, vm_)), cv); \
+        } while (0)
+#if TX_ONE_LIGHT
+        uint block = light_block(spp, nlights);
+        if (nlights) {
+            float3 lposj[TX_CHUNK], lij[TX_CHUNK];
+            for (uint j = 0; j < m; ++j) {
+                uint pick = light_pick(sample0 + k0 + j - lp[j] * nsamples, pattern[lp[j]], nlights, block);
+                lposj[j] = vload3(0, lights[pick].position);
+                lij[j] = light_intensity(vload3(0, lights[pick].intensity), nlights);
+            }
+            light_visible_packet(&sl, m, lposj, TX_GEOM_ARGS, vis);
+            TX_ADD_LIGHT(lposj, lij, 1u);
+        }
+#else
+        FOR_EACH_LIGHT(i, nlights) {
+            float3 lpos = vload3(0, lights[i].position);
+            float3 lposj[TX_CHUNK];
+            for (uint j = 0; j < (uint)TX_CHUNK; ++j) lposj[j] = lpos;
+            light_visible_packet(&sl, m, lposj, TX_GEOM_ARGS, vis);
+            float3 li = light_intensity(vload3(0, lights[i].intensity), nlights);
+            TX_ADD_LIGHT(lposj, &li, 0u);
+        }
+#endif
+#undef TX_ADD_LIGHT
+#undef TX_VIS_J
+        {
+            float cl[3][TX_CHUNK];
+            PSTORE(cv.x, cl[0]); PSTORE(cv.y, cl[1]); PSTORE(cv.z, cl[2]);
+            for (uint j = 0; j < m; ++j) c[j] = (float3)(cl[0][j], cl[1][j], cl[2][j]);
+        }
+#else
         /* What reads the records back, in a loop of its own: read right after surface_eval
          * wrote them (as scalars), their vector fields' loads waited on the stores (perf put
          * the globe's hottest instruction there); apart, tools/ab.py measured 0.98 of the
@@ -320,6 +377,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
                 if (vis[j]) c[j] += light_term(s + j, v[j], lpos, li);
 #endif
         }
+#endif
 #endif
         /* the samples' sums, in sample order; with one pixel per work-item its index as the
          * constant it is, so that the sum stays in a register (indexed by lp[j], a load,
