@@ -36,6 +36,18 @@ typedef struct {
 
 static inline __attribute__((always_inline)) pfloat3 pf3(pfloat x, pfloat y, pfloat z) { pfloat3 v = { x, y, z }; return v; }
 static inline __attribute__((always_inline)) pfloat3 pf3_splat(float3 a) { return pf3((pfloat)(a.x), (pfloat)(a.y), (pfloat)(a.z)); }
+/* a[min(j, m - 1) step] for lanes j as a pfloat3: lanes past m repeat lane m - 1's (m >= 1);
+ * step 0 gives a[0] in every lane. */
+static inline __attribute__((always_inline)) pfloat3 pf3_gather(const float3* a, uint step, uint m)
+{
+#define TX_G_X(j) a[TX_MIN((uint)(j), m - 1u) * step].x
+#define TX_G_Y(j) a[TX_MIN((uint)(j), m - 1u) * step].y
+#define TX_G_Z(j) a[TX_MIN((uint)(j), m - 1u) * step].z
+    return pf3((pfloat)PGATHER(TX_G_X), (pfloat)PGATHER(TX_G_Y), (pfloat)PGATHER(TX_G_Z));
+#undef TX_G_X
+#undef TX_G_Y
+#undef TX_G_Z
+}
 static inline __attribute__((always_inline)) pfloat3 pf3_add(pfloat3 a, pfloat3 b) { return pf3(a.x + b.x, a.y + b.y, a.z + b.z); }
 static inline __attribute__((always_inline)) pfloat3 pf3_sub(pfloat3 a, pfloat3 b) { return pf3(a.x - b.x, a.y - b.y, a.z - b.z); }
 static inline __attribute__((always_inline)) pfloat3 pf3_scale(pfloat s, pfloat3 a) { return pf3(s * a.x, s * a.y, s * a.z); }

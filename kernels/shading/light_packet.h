@@ -63,28 +63,6 @@ static inline __attribute__((always_inline)) pfloat3 light_term_lanes(pfloat3 p,
                PSEL_F(ok, in.z * (term.z / d2), (pfloat)(0.0f)));
 }
 
-/* The lights lpos[j] and intensities li[j * li_step] (li_step 0: one for every lane) of lanes
- * 0 .. TX_PACKET - 1 as vectors, lanes past m reading lane m - 1's. */
-inline void light_lanes(const float3* lpos, const float3* li, uint li_step, uint m, pfloat3* lp, pfloat3* in)
-{
-#define TX_LT_J(j) TX_MIN((uint)(j), m - 1u)
-#define TX_LT_AX(j, a) a[TX_LT_J(j)].x
-#define TX_LT_AY(j, a) a[TX_LT_J(j)].y
-#define TX_LT_AZ(j, a) a[TX_LT_J(j)].z
-#define TX_LT_IX(j, a) a[TX_LT_J(j) * li_step].x
-#define TX_LT_IY(j, a) a[TX_LT_J(j) * li_step].y
-#define TX_LT_IZ(j, a) a[TX_LT_J(j) * li_step].z
-    *lp = pf3((pfloat)PGATHER_A(TX_LT_AX, lpos), (pfloat)PGATHER_A(TX_LT_AY, lpos), (pfloat)PGATHER_A(TX_LT_AZ, lpos));
-    *in = pf3((pfloat)PGATHER_A(TX_LT_IX, li), (pfloat)PGATHER_A(TX_LT_IY, li), (pfloat)PGATHER_A(TX_LT_IZ, li));
-#undef TX_LT_J
-#undef TX_LT_AX
-#undef TX_LT_AY
-#undef TX_LT_AZ
-#undef TX_LT_IX
-#undef TX_LT_IY
-#undef TX_LT_IZ
-}
-
 /* c[j] += light_term(s + j, v[j], lpos[j], li[j * li_step]) for every lane j < m with vis[j]
  * (li_step 0: one intensity for every lane): the records gathered into vectors for
  * light_term_lanes. Lanes past m read lane m - 1's inputs; lanes not visible (a miss among
@@ -97,17 +75,12 @@ inline void light_term_packet(const Surface* s, const float3* v, const float3* l
 #define TX_LT_VIS(j) (vis[TX_LT_J(j)] ? -1 : 0)
     pint ok = (pint)PGATHER(TX_LT_VIS);
     if (!any(ok)) return;
-/* a Surface field's three floats and a float3 array's elements as pfloat3s */
+/* a Surface field's three floats as a pfloat3 */
 #define TX_LT_SF(j, f) s[TX_LT_J(j)].f
 #define TX_LT_S3(f) PGATHER_F3(TX_LT_SF, f)
-#define TX_LT_AX(j, a) a[TX_LT_J(j)].x
-#define TX_LT_AY(j, a) a[TX_LT_J(j)].y
-#define TX_LT_AZ(j, a) a[TX_LT_J(j)].z
-    pfloat3 lp, in;
-    light_lanes(lpos, li, li_step, m, &lp, &in);
-    pfloat3 vv = pf3((pfloat)PGATHER_A(TX_LT_AX, v), (pfloat)PGATHER_A(TX_LT_AY, v), (pfloat)PGATHER_A(TX_LT_AZ, v));
     pfloat3 t = light_term_lanes(TX_LT_S3(p), TX_LT_S3(ns), TX_LT_S3(kd), TX_LT_S3(ks),
-                                 (pfloat)PGATHER_A(TX_LT_SF, shininess), vv, lp, in, ok);
+                                 (pfloat)PGATHER_A(TX_LT_SF, shininess), pf3_gather(v, 1u, m),
+                                 pf3_gather(lpos, 1u, m), pf3_gather(li, li_step, m), ok);
     /* every visible lane adds its term, 0 where light_term returns 0 (as the scalar code adds) */
     float o[3][TX_PACKET];
     PSTORE(t.x, o[0]); PSTORE(t.y, o[1]); PSTORE(t.z, o[2]);
@@ -117,9 +90,6 @@ inline void light_term_packet(const Surface* s, const float3* v, const float3* l
 #undef TX_LT_VIS
 #undef TX_LT_SF
 #undef TX_LT_S3
-#undef TX_LT_AX
-#undef TX_LT_AY
-#undef TX_LT_AZ
 }
 #else
 #define TX_LIGHT_PACKET 0

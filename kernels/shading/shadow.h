@@ -93,24 +93,19 @@ inline void shadow_origins_packet(const Surface* s, uint m, ShadowLanes* out)
 }
 
 /* light_visible for the m <= TX_PACKET surface points s[0..m) with their shadow origins
- * (shadow_origins_packet), each toward its own light lpos[j], into vis[j]: the
+ * (shadow_origins_packet), each toward its own light (lane j of *lights), into vis[j]: the
  * same answers, from one packet traversal (accel/packet.h). Points that are not valid get 0.
- * Every sample's rays toward one light (lpos[j] all equal), or with TX_ONE_LIGHT each
+ * Every sample's rays toward one light (every lane's the same), or with TX_ONE_LIGHT each
  * sample's ray toward the light it picked: one packet for the chunk, not one per light with
  * the other lights' lanes idle. */
-inline void light_visible_packet(const ShadowLanes* sl, uint m, const float3* lpos, TX_GEOM_PARAMS, uchar* vis)
+inline void light_visible_packet(const ShadowLanes* sl, uint m, const pfloat3* lights, TX_GEOM_PARAMS, uchar* vis)
 {
-    /* shadow_ray for every lane as one vector computation: the lights gathered straight
-     * into vectors (lanes past m read lane m - 1's and are masked off), not written
-     * lane by lane into the packet and read back as vectors, which stalled on the
-     * store-to-load forwarding (a fifth of this function's time, perf on the globe) */
+    /* shadow_ray for every lane as one vector computation, the lights given as vectors
+     * (pf3_splat of one light, or pf3_gather of each lane's), not written lane by lane into the
+     * packet and read back as vectors, which stalled on the store-to-load forwarding (a fifth
+     * of this function's time, perf on the globe) */
     if (m == 0u) return;
-#define TX_SH_J(j) TX_MIN((uint)(j), m - 1u)
-#define TX_SH_LX(j) lpos[TX_SH_J(j)].x
-#define TX_SH_LY(j) lpos[TX_SH_J(j)].y
-#define TX_SH_LZ(j) lpos[TX_SH_J(j)].z
-    pfloat3 o = sl->o, n = sl->n;
-    pfloat3 l = pf3((pfloat)PGATHER(TX_SH_LX), (pfloat)PGATHER(TX_SH_LY), (pfloat)PGATHER(TX_SH_LZ));
+    pfloat3 o = sl->o, n = sl->n, l = *lights;
     pint live = sl->valid & (as_pint(TX_PKT_LANE_IDS) < (pint)((int)m));
     pfloat3 d = pf3_sub(l, o);
     /* ray_valid(o, d, 0, 1) (core/common.h), then the side test: the dot product as
@@ -137,10 +132,6 @@ inline void light_visible_packet(const ShadowLanes* sl, uint m, const float3* lp
     }
     PSTORE(live, occ);                           /* without TX_SHADOWS: every valid ray's light, as light_visible */
     for (uint j = 0; j < m; ++j) vis[j] = occ[j] != 0;
-#undef TX_SH_J
-#undef TX_SH_LX
-#undef TX_SH_LY
-#undef TX_SH_LZ
 }
 #endif
 

@@ -271,13 +271,11 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
             shadow_origins_lanes(sv.p, sv.lift, sv.ng, sv.ns, sv.offset, sv.valid, &sl);
         /* cv += light_term where the light at lp_ (intensity li_, li_step_) is visible (vis) */
 #define TX_VIS_J(j) (vis[TX_MIN((uint)(j), m - 1u)] ? -1 : 0)
-#define TX_ADD_LIGHT(lp_, li_, li_step_) do { \
-            pfloat3 lpv_, inv_; \
-            light_lanes(lp_, li_, li_step_, m, &lpv_, &inv_); \
+#define TX_ADD_LIGHT(lp_, li_) do { \
             pint vm_ = (pint)PGATHER(TX_VIS_J); \
             if (any(vm_)) \
-                cv = pf3_sel(vm_, pf3_add(cv, light_term_lanes(sv.p, sv.ns, sv.kd, sv.ks, sv.shin, sv.wo, lpv_, \
-                                                               inv_, vm_)), cv); \
+                cv = pf3_sel(vm_, pf3_add(cv, light_term_lanes(sv.p, sv.ns, sv.kd, sv.ks, sv.shin, sv.wo, lp_, li_, \
+                                                               vm_)), cv); \
         } while (0)
 #if TX_ONE_LIGHT
         uint block = light_block(spp, nlights);
@@ -288,17 +286,15 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
                 lposj[j] = vload3(0, lights[pick].position);
                 lij[j] = light_intensity(vload3(0, lights[pick].intensity), nlights);
             }
-            light_visible_packet(&sl, m, lposj, TX_GEOM_ARGS, vis);
-            TX_ADD_LIGHT(lposj, lij, 1u);
+            pfloat3 lpv = pf3_gather(lposj, 1u, m), liv = pf3_gather(lij, 1u, m);
+            light_visible_packet(&sl, m, &lpv, TX_GEOM_ARGS, vis);
+            TX_ADD_LIGHT(lpv, liv);
         }
 #else
         FOR_EACH_LIGHT(i, nlights) {
-            float3 lpos = vload3(0, lights[i].position);
-            float3 lposj[TX_CHUNK];
-            for (uint j = 0; j < (uint)TX_CHUNK; ++j) lposj[j] = lpos;
-            light_visible_packet(&sl, m, lposj, TX_GEOM_ARGS, vis);
-            float3 li = light_intensity(vload3(0, lights[i].intensity), nlights);
-            TX_ADD_LIGHT(lposj, &li, 0u);
+            pfloat3 lpv = pf3_splat(vload3(0, lights[i].position));
+            light_visible_packet(&sl, m, &lpv, TX_GEOM_ARGS, vis);
+            TX_ADD_LIGHT(lpv, pf3_splat(light_intensity(vload3(0, lights[i].intensity), nlights)));
         }
 #endif
 #undef TX_ADD_LIGHT
@@ -341,7 +337,8 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
                 lposj[j] = vload3(0, lights[pick[j]].position);
             }
 #if TX_PACKET
-            light_visible_packet(&sl, m, lposj, TX_GEOM_ARGS, vis);
+            pfloat3 lpv = pf3_gather(lposj, 1u, m);
+            light_visible_packet(&sl, m, &lpv, TX_GEOM_ARGS, vis);
 #else
             for (uint j = 0; j < m; ++j)
                 vis[j] = s[j].valid && light_visible(s + j, sorg[j], lifted[j], lposj[j], TX_GEOM_ARGS);
@@ -364,7 +361,8 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #if TX_PACKET
             float3 lposj[TX_CHUNK];
             for (uint j = 0; j < (uint)TX_CHUNK; ++j) lposj[j] = lpos;
-            light_visible_packet(&sl, m, lposj, TX_GEOM_ARGS, vis);
+            pfloat3 lpv = pf3_splat(lpos);
+            light_visible_packet(&sl, m, &lpv, TX_GEOM_ARGS, vis);
 #else
             for (uint j = 0; j < m; ++j)
                 vis[j] = s[j].valid && light_visible(s + j, sorg[j], lifted[j], lpos, TX_GEOM_ARGS);
