@@ -21,6 +21,13 @@
 #if TX_PACKET && TX_POCL
 #define TX_LIGHT_PACKET 1
 
+/* clamp_radiance1 (shading/light.h) lane by lane: the same two selects (NaN: TX_MAX_RADIANCE). */
+static inline __attribute__((always_inline)) pfloat pf_clamp_radiance(pfloat x)
+{
+    x = PSEL_F(x <= TX_MAX_RADIANCE, x, (pfloat)(TX_MAX_RADIANCE));
+    return PSEL_F(x >= -TX_MAX_RADIANCE, x, (pfloat)(-TX_MAX_RADIANCE));
+}
+
 /* light_term for every lane of ok as vectors: the surface point p, its shading normal nrm,
  * kd, ks and shininess, the view vector v, the light lp with its intensity in; the term in
  * the lanes of ok where light_term's is not 0, 0 in every other lane. */

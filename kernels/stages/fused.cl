@@ -299,11 +299,11 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #endif
 #undef TX_ADD_LIGHT
 #undef TX_VIS_J
-        {
-            float cl[3][TX_CHUNK];
-            PSTORE(cv.x, cl[0]); PSTORE(cv.y, cl[1]); PSTORE(cv.z, cl[2]);
-            for (uint j = 0; j < m; ++j) c[j] = (float3)(cl[0][j], cl[1][j], cl[2][j]);
-        }
+        /* the colours clamped as vectors (clamp_radiance lane by lane), read by the sums below */
+        float cl[3][TX_CHUNK];
+        PSTORE(pf_clamp_radiance(cv.x), cl[0]); PSTORE(pf_clamp_radiance(cv.y), cl[1]);
+        PSTORE(pf_clamp_radiance(cv.z), cl[2]);
+#define TX_SAMPLE_C(j) ((float3)(cl[0][j], cl[1][j], cl[2][j]))
 #else
         /* What reads the records back, in a loop of its own: read right after surface_eval
          * wrote them (as scalars), their vector fields' loads waited on the stores (perf put
@@ -385,8 +385,11 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #else
 #define TX_LP(j) 0u
 #endif
+#ifndef TX_SAMPLE_C
+#define TX_SAMPLE_C(j) clamp_radiance(c[j])
+#endif
         for (uint j = 0; j < m; ++j) {
-            float3 cj = clamp_radiance(c[j]);
+            float3 cj = TX_SAMPLE_C(j);
             sum[TX_LP(j)] += cj;
 #if TX_ADAPTIVE
             float y = 0.2126f * cj.x + 0.7152f * cj.y + 0.0722f * cj.z;     /* Rec. 709 luminance */
@@ -394,6 +397,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #endif
         }
 #undef TX_LP
+#undef TX_SAMPLE_C
     }
     for (uint q = 0; q < npix; ++q)
         accum[TX_PIXEL(q)] += (float4)(sum[q], (float)nsamples);
