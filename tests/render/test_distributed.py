@@ -48,11 +48,17 @@ def test_bands_of_rows_equal_the_whole_image(scenes_dir, device, monkeypatch):
     samples in several launches and the tiles differ (the launch grouping comes from the
     image, not the tile)."""
     scene = _scene(scenes_dir)
-    monkeypatch.setattr(tiling, "MAX_FUSED_SAMPLES", 2 * 48 * 40)     # 2 samples per launch at 48 x 40
+    monkeypatch.setattr(tiling, "MAX_FUSED_SAMPLES", 2 * 48 * 5)      # 5 samples of 2 rows a launch
+    assert tiling.fused_samples(48, 40, 5) == 5 and tiling.fused_rows(48, 5) == 2
+    whole = tx.render(scene, 48, 40, 5, device=device, aovs=("depth",))
+    tiled = tx.render(scene, 48, 40, 5, device=device, tile_pixels=48 * 7)
+    assert whole.stats["tiles"] == tiled.stats["tiles"] == 20
+    np.testing.assert_array_equal(tiled.rgb, whole.rgb)
+    monkeypatch.setattr(tiling, "MAX_FUSED_SAMPLES", 2 * 48)          # 2 samples per launch, one row
     assert tiling.fused_samples(48, 40, 5) == 2
     whole = tx.render(scene, 48, 40, 5, device=device, aovs=("depth",))
     tiled = tx.render(scene, 48, 40, 5, device=device, tile_pixels=48 * 7)
-    assert tiled.stats["tiles"] == 6
+    assert tiled.stats["tiles"] == 40
     np.testing.assert_array_equal(tiled.rgb, whole.rgb)
     for rows in ((0, 40), (3, 17), (16, 32), (39, 40)):
         band = tx.render(scene, 48, 40, 5, device=device, rows=rows, aovs=("depth",), tile_pixels=48 * 4)

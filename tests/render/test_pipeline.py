@@ -28,17 +28,35 @@ def test_fused_equals_staged(device, scenes_dir, path):
 def test_fused_launch_splits_and_tiles(device, scenes_dir, monkeypatch):
     scene = tx.Scene.load(scenes_dir / "bench/mixed.toml")
     ref = render(scene, 32, 24, 5, device=device, pipeline="stages", aovs=("depth",))
-    # 2 samples per launch: the image's own tile (all 32 x 24 pixels) decides, not tile_pixels
-    monkeypatch.setattr(tiling, "MAX_FUSED_SAMPLES", 32 * 24 * 2)
+    # a row's 5 samples over MAX_FUSED_SAMPLES: launches of 2 samples (as many as fit in one
+    # row), one row each, whatever tile_pixels asks
+    monkeypatch.setattr(tiling, "MAX_FUSED_SAMPLES", 32 * 2)
+    assert tiling.fused_samples(32, 24, 5) == 2 and tiling.fused_rows(32, 2) == 1
     seen = []
     img = render(scene, 32, 24, 5, device=device, tile_pixels=32 * 8, aovs=("depth",), progress=seen.append)
-    assert img.stats["tiles"] == 3 and len(img.stats["stage_s"]) == 4
+    assert img.stats["tiles"] == 24 and img.stats["tile_rows"] == 1 and len(img.stats["stage_s"]) == 4
     # launches of 2 samples add partial sums ((s0 + s1) + (s2 + s3)) + s4 where the staged
     # pipeline adds one sample at a time: float32 rounding, a few ulp
     np.testing.assert_allclose(img.rgb, ref.rgb, rtol=4e-7, atol=1e-9)
     np.testing.assert_array_equal(img.aov["depth"], ref.aov["depth"])
-    # 3 tiles x (3 fused launches + the AOV pass), progress strictly increasing to 1
-    assert len(seen) == 12 and seen[-1] == 1.0 and all(b > a for a, b in zip(seen, seen[1:]))
+    # 24 tiles x (3 fused launches + the AOV pass), progress strictly increasing to 1
+    assert len(seen) == 96 and seen[-1] == 1.0 and all(b > a for a, b in zip(seen, seen[1:]))
+
+
+def test_a_pixels_samples_take_one_launch_where_a_row_fits(device, scenes_dir, monkeypatch):
+    """Where a row's samples fit MAX_FUSED_SAMPLES, a launch takes every sample of its pixels
+    and as many rows as fit: each pixel sums its samples in order, as the staged pipeline
+    does one at a time, so the images are equal bit for bit; 640x480 at 16 spp (the textured
+    meshes bench) takes launches of 409 rows, all 16 samples."""
+    assert tiling.fused_samples(640, 480, 16) == 16 and tiling.fused_rows(640, 16) == 409
+    assert tiling.fused_samples(4096, 2160, 2048) == tiling.MAX_FUSED_SAMPLES // 4096     # a row over the limit
+    scene = tx.Scene.load(scenes_dir / "bench/mixed.toml")
+    ref = render(scene, 32, 24, 5, device=device, pipeline="stages")
+    monkeypatch.setattr(tiling, "MAX_FUSED_SAMPLES", 32 * 24 * 2)      # 9 rows of 5 samples a launch
+    assert tiling.fused_samples(32, 24, 5) == 5 and tiling.fused_rows(32, 5) == 9
+    img = render(scene, 32, 24, 5, device=device)
+    assert img.stats["tiles"] == 3 and img.stats["tile_rows"] == 9 and len(img.stats["stage_s"]) == 1
+    np.testing.assert_array_equal(img.rgb, ref.rgb)
 
 
 def test_unknown_pipeline_is_an_error(scenes_dir):

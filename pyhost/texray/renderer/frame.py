@@ -21,7 +21,7 @@ from ..device import layout, runtime
 from ..device.features import compile_options, pixels_per_item
 from ..errors import DeviceError
 from .adaptive import BLOCK_ROWS, dilate, round_size, round_sizes, standard_error, unconverged
-from .tiling import fused_samples, plan_rows
+from .tiling import fused_rows, fused_samples, plan_rows
 
 STAGES = ("raygen", "intersect", "surface", "shadow", "shade")
 # render()'s settings that render_rows takes as they are (with the device and local size: a band's options)
@@ -49,8 +49,9 @@ class Rows:
 def launch_samples(width, height, spp, adaptive=None) -> int:
     """Samples per pixel that a fused launch sums (the packet rule's input,
     texray.device.features.packet_width): fused_samples, within a round of adaptive sampling."""
-    n = fused_samples(width, height, spp)
-    return min(n, round_size(spp)) if adaptive is not None else n
+    if adaptive is not None:
+        return min(fused_samples(width, height, spp, BLOCK_ROWS), round_size(spp))
+    return fused_samples(width, height, spp)
 
 
 def device_program(cs, device, local_size, samples=0):
@@ -87,6 +88,10 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
     per_ray = per_ray_bytes(cs, fused, aovs, adaptive)
     tile = plan_rows(width, band, per_ray, sum(cs.device_bytes().values()), rt.device,
                      memory_limit=memory_limit, tile_pixels=tile_pixels)
+    unit = BLOCK_ROWS if adaptive is not None else 1     # adaptive sampling's tiles: whole blocks
+    per_launch = fused_samples(width, height, spp, unit) if fused else 1
+    if fused:                                # a launch's pixel samples: MAX_FUSED_SAMPLES at most
+        tile = min(tile, fused_rows(width, per_launch, unit))
     if adaptive is not None and tile >= BLOCK_ROWS:
         tile -= tile % BLOCK_ROWS            # whole blocks per tile: the stopping rule's unit
     t0 = time.perf_counter()
@@ -95,7 +100,6 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
     img_rows = tile if sink is not None else band      # with a sink, only one band is kept
     out = np.empty((img_rows, width, 4), np.float32)
     aov_out = np.empty((img_rows, width, layout.AOV_FLOATS), np.float32) if aovs else None
-    per_launch = fused_samples(width, height, spp) if fused else 1
     launches = (spp + per_launch - 1) // per_launch
     if adaptive is not None:            # the most launches the rounds can take
         launches = sum((c + per_launch - 1) // per_launch for c in round_sizes(spp))
