@@ -20,7 +20,10 @@ over nodes or primitives.  Work is O(n) per level, O(n log n) in all.
   ``(min x, min y, min z, -max x, -max y, -max z)`` so one minimum gives both
   corners.  A level whose active nodes hold on average fewer than ``2 * bins``
   primitives uses ``max(4, average / 2)`` bins, as more would be mostly empty
-  (it changes the SAH cost of typical trees by well under 1%).
+  (it changes the SAH cost of typical trees by well under 1%).  Levels of at most
+  TOP_LEVEL_NODES nodes (the tree's first six) may bin finer (``top_bins``): few nodes,
+  so cheap, and where one large primitive (a ground plane's triangles) stretches the
+  centroid range, 16 bins leave the objects in a few of them (below).
 * Plane costs: a backward and a forward sweep over the bins give, for every
   plane, node and axis, ``nL * A(L) + nR * A(R)`` (``A`` = half surface area,
   computed in float32 after scaling each node's extents by 1 / its largest
@@ -67,6 +70,9 @@ import numpy as np
 
 from ..device.layout import BVH_NODE, LEAF_COUNT_MASK, PRIM_TRIANGLE, decode_leaf, encode_leaf
 
+# Levels of at most this many nodes bin with ``top_bins`` (build).
+TOP_LEVEL_NODES = 64
+
 # Grouped minima use np.minimum.reduceat (cost per run) while there are fewer
 # than this many runs per primitive, np.minimum.at (cost per primitive) above.
 _RUNS_PER_PRIM = 0.1
@@ -95,7 +101,7 @@ def leaf_size_limit(max_leaf: int = 4, sah_leaf_max: int | None = None) -> int:
 
 
 def build(bmin, bmax, *, max_leaf=4, bins=16, kind=PRIM_TRIANGLE, t_trav=1.0,
-          t_isect=1.0, sah_leaf_max=None) -> BVH:
+          t_isect=1.0, sah_leaf_max=None, top_bins=None) -> BVH:
     """Build a binned-SAH BVH over axis-aligned primitive boxes.
 
     bmin, bmax: (n, 3) primitive box corners, world units (float32; other real
@@ -108,6 +114,8 @@ def build(bmin, bmax, *, max_leaf=4, bins=16, kind=PRIM_TRIANGLE, t_trav=1.0,
     t_trav, t_isect: SAH costs of one node traversal and one intersection.
     sah_leaf_max: largest node the SAH may keep as a leaf rather than split it
         (module docstring); None = ``max_leaf``, i.e. SAH termination off.
+    top_bins: bins per axis and node on levels of at most TOP_LEVEL_NODES nodes (at
+        least ``bins``); None = ``bins``.
 
     Raises ValueError for bad shapes, NaN/inf bounds, bmin > bmax, or bad settings.
     """
@@ -115,6 +123,7 @@ def build(bmin, bmax, *, max_leaf=4, bins=16, kind=PRIM_TRIANGLE, t_trav=1.0,
     lo, hi = check_boxes(bmin, bmax)
     sah_leaf_max = max_leaf if sah_leaf_max is None else sah_leaf_max
     _check_settings(max_leaf, bins, kind, t_trav, t_isect, sah_leaf_max)
+    top_bins = bins if top_bins is None else max(bins, int(top_bins))
     n = len(lo)
     if n == 0:
         nodes, order, depth = np.zeros(0, BVH_NODE), np.zeros(0, np.uint32), 0
@@ -124,7 +133,7 @@ def build(bmin, bmax, *, max_leaf=4, bins=16, kind=PRIM_TRIANGLE, t_trav=1.0,
         order, depth = np.arange(n, dtype=np.uint32), 1
     else:
         builder = _LevelBuilder(lo, hi, max_leaf, bins, kind, t_trav, t_isect,
-                                max(sah_leaf_max, max_leaf))
+                                max(sah_leaf_max, max_leaf), top_bins)
         nodes, order, depth = builder.run()
     cost = sah_cost(nodes, t_trav, t_isect)
     return BVH(nodes, order, cost, depth, time.perf_counter() - t0)
@@ -377,8 +386,8 @@ class _Level:
 class _LevelBuilder:
     """State of one build: per-axis arrays of the active primitives and the output."""
 
-    def __init__(self, lo, hi, max_leaf, bins, kind, t_trav, t_isect, sah_leaf_max):
-        self.max_leaf, self.bins, self.kind = max_leaf, bins, kind
+    def __init__(self, lo, hi, max_leaf, bins, kind, t_trav, t_isect, sah_leaf_max, top_bins):
+        self.max_leaf, self.bins, self.kind, self.top_bins = max_leaf, bins, kind, top_bins
         self.t_trav, self.t_isect, self.sah_leaf_max = t_trav, t_isect, sah_leaf_max
         n = len(lo)
         box = np.concatenate((lo.T, -hi.T))                # (6, n)
@@ -422,7 +431,8 @@ class _LevelBuilder:
     def _bins(self, seg):
         """Bin bounds (3, 6, bins, k) and counts (3, bins, k) of the active nodes."""
         k = len(seg.cnt)
-        bins = min(self.bins, max(4, len(seg.node) // (2 * k)))   # module docstring
+        bins = min(self.top_bins if k <= TOP_LEVEL_NODES else self.bins,
+                   max(4, len(seg.node) // (2 * k)))             # module docstring
         size = 3 * 6 * bins * k
         if len(self.grid) < size:
             self.grid = np.empty(2 * size, np.float32)
