@@ -115,22 +115,22 @@ inline void light_visible_packet(const ShadowLanes* sl, uint m, const pfloat3* l
           & (ax <= TX_DIR_MAX) & (ay <= TX_DIR_MAX) & (az <= TX_DIR_MAX)
           & ((ax >= TX_DIR_MIN) | (ay >= TX_DIR_MIN) | (az >= TX_DIR_MIN));
     live &= pf3_dot(d, n) > 0.0f;
-    /* lanes not traced: any valid ray (origin 0, direction +z) */
-    PacketRay r;
-    PSTORE(PSEL_F(live, o.x, (pfloat)(0.0f)), r.org[0]);
-    PSTORE(PSEL_F(live, o.y, (pfloat)(0.0f)), r.org[1]);
-    PSTORE(PSEL_F(live, o.z, (pfloat)(0.0f)), r.org[2]);
-    PSTORE(PSEL_F(live, d.x, (pfloat)(0.0f)), r.dir[0]);
-    PSTORE(PSEL_F(live, d.y, (pfloat)(0.0f)), r.dir[1]);
-    PSTORE(PSEL_F(live, d.z, (pfloat)(1.0f)), r.dir[2]);
-    PSTORE((pfloat)(0.0f), r.range[0]);
-    PSTORE((pfloat)(1.0f), r.range[1]);
-    int occ[TX_PACKET];
-    if (TX_SHADOWS) {
+    if (TX_SHADOWS) {                            /* without: every valid ray's light, as light_visible */
+        /* lanes not traced: any valid ray (origin 0, direction +z) */
+        PacketRay r;
+        PSTORE(PSEL_F(live, o.x, (pfloat)(0.0f)), r.org[0]);
+        PSTORE(PSEL_F(live, o.y, (pfloat)(0.0f)), r.org[1]);
+        PSTORE(PSEL_F(live, o.z, (pfloat)(0.0f)), r.org[2]);
+        PSTORE(PSEL_F(live, d.x, (pfloat)(0.0f)), r.dir[0]);
+        PSTORE(PSEL_F(live, d.y, (pfloat)(0.0f)), r.dir[1]);
+        PSTORE(PSEL_F(live, d.z, (pfloat)(1.0f)), r.dir[2]);
+        PSTORE((pfloat)(0.0f), r.range[0]);
+        PSTORE((pfloat)(1.0f), r.range[1]);
         packet_setup(&r, live);
         live &= ~bvh_any_packet(TX_GEOM_ARGS, &r, live);              /* visible: traced and not occluded */
     }
-    PSTORE(live, occ);                           /* without TX_SHADOWS: every valid ray's light, as light_visible */
+    int occ[TX_PACKET];
+    PSTORE(live, occ);
     for (uint j = 0; j < m; ++j) vis[j] = occ[j] != 0;
 }
 #endif

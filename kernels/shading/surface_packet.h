@@ -415,7 +415,7 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
      * triangle has them: surface_geometry), bumped */
     pfloat3 n_out = ng0;
 #if TX_VERTEX_NORMALS
-    pfloat3 lift = pf3((pfloat)(0.0f), (pfloat)(0.0f), (pfloat)(0.0f));   /* the shadow-ray lift */
+    pfloat3 lift = pf3_splat((float3)(0.0f));    /* the shadow-ray lift */
     int vn[TX_PACKET], anyn = 0;                 /* lanes on a triangle with vertex normals */
     for (uint j = 0; j < (uint)TX_PACKET; ++j) {
         vn[j] = lanes[j] && hk[j] == (int)PRIM_TRIANGLE && (tri_shade[pidx[j]].flags & TRI_HAS_NORMALS);
@@ -493,7 +493,6 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
     /* the material (surface_material): kd through the diffuse texture, its four taps read lane
      * by lane and blended as vectors (texture_bilinear_level's float4 arithmetic per component,
      * contraction off as there: the same floats) */
-    pint textured = (pint)(0);
     if (TX_TEXTURES) {
         int mt[TX_PACKET], anyt = 0;
         for (uint j = 0; j < (uint)TX_PACKET; ++j) { mt[j] = lanes[j] && dtex[j] >= 0; anyt |= mt[j]; }
@@ -533,8 +532,7 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
 #define TX_BLEND(c) ((tap[0].c * bx + tap[1].c * ax) * by + (tap[2].c * bx + tap[3].c * ax) * ay)
             pfloat3 blend = pf3(TX_BLEND(x), TX_BLEND(y), TX_BLEND(z));
 #undef TX_BLEND
-            textured = (pint)(TX_LANES(mt)) != 0;
-            kd = pf3_sel(textured, pf3(kd.x * blend.x, kd.y * blend.y, kd.z * blend.z), kd);
+            kd = pf3_sel((pint)(TX_LANES(mt)) != 0, pf3(kd.x * blend.x, kd.y * blend.y, kd.z * blend.z), kd);
         }
     }
     /* the record (surface_write) */
@@ -545,7 +543,7 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
 #if TX_VERTEX_NORMALS
     sv->lift = lift;
 #else
-    sv->lift = pf3((pfloat)(0.0f), (pfloat)(0.0f), (pfloat)(0.0f));
+    sv->lift = pf3_splat((float3)(0.0f));
 #endif
 }
 

@@ -994,6 +994,27 @@ def test_avx512_tracer_hits_equal_avx2(device, rng, monkeypatch):
     assert np.array_equal(o0, o1) and 0 < o0.sum() < len(o0)
 
 
+def _scalar_and_packet(rt, source, kernel, features, width, rec, cols):
+    """Build ``source`` for ``features`` at TX_PACKET ``width`` and run its ``kernel(in, out_s,
+    out_p, n)`` over the records ``rec`` (``width`` per work-item): (out_s, out_p), ``cols``
+    floats per record each, NaN where the kernel wrote nothing."""
+    import pyopencl as cl
+    from kernel_harness import build_test_program
+    from texray.device.features import compile_options
+    opts = {**compile_options(features), "TX_PACKET": width}
+    k = build_test_program(rt, (), source, [f"-D{a}={b}" for a, b in opts.items()])
+    n, mf = len(rec), cl.mem_flags
+    bi = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=rec)
+    out_s = np.full((n, cols), np.nan, np.float32)
+    out_p = out_s.copy()
+    bs = cl.Buffer(rt.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out_s)
+    bp = cl.Buffer(rt.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out_p)
+    getattr(k, kernel)(rt.queue, (n // width,), None, bi, bs, bp, np.uint32(n // width))
+    cl.enqueue_copy(rt.queue, out_s, bs)
+    cl.enqueue_copy(rt.queue, out_p, bp)
+    return out_s, out_p
+
+
 _SHADOW_ORIGINS_KERNEL = r"""
 #include "texray.cl"
 
@@ -1042,9 +1063,6 @@ def test_packet_shadow_origins_equal_shadow_origin(rt, rng, width):
     normal bit for bit in every valid lane: random points and normals, lifts on both sides of
     the lifted test, normal components 0, -0 and NaN, points whose offset lands on 0 and -0,
     denormals, infinities, NaNs, huge offsets, and chunks shorter than the packet."""
-    import pyopencl as cl
-    from kernel_harness import build_test_program
-    from texray.device.features import compile_options
     n = 1 << 15
     rec = np.zeros((n, 16), np.float32)
     rec[:, 0:3] = rng.normal(size=(n, 3)) * 10.0 ** rng.uniform(-6, 6, (n, 1))
@@ -1072,17 +1090,8 @@ def test_packet_shadow_origins_equal_shadow_origin(rt, rng, width):
     rec[kind == 5, 12] = np.float32(1e30)                     # a huge offset
     valid = np.where(rng.random(n) < 0.85, np.uint32(1), np.uint32(0))
     rec[:, 13] = valid.view(np.float32)
-    opts = {**compile_options(Features(quads=True, triangles=False, textures=True)), "TX_PACKET": width}
-    k = build_test_program(rt, (), _SHADOW_ORIGINS_KERNEL, [f"-D{a}={b}" for a, b in opts.items()])
-    mf = cl.mem_flags
-    bi = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=rec)
-    out_s = np.full((n, 7), np.nan, np.float32)
-    out_p = out_s.copy()
-    bs = cl.Buffer(rt.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out_s)
-    bp = cl.Buffer(rt.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out_p)
-    k.shadow_origins(rt.queue, (n // width,), None, bi, bs, bp, np.uint32(n // width))
-    cl.enqueue_copy(rt.queue, out_s, bs)
-    cl.enqueue_copy(rt.queue, out_p, bp)
+    out_s, out_p = _scalar_and_packet(rt, _SHADOW_ORIGINS_KERNEL, "shadow_origins",
+                                      Features(quads=True, triangles=False, textures=True), width, rec, 7)
     lane = np.arange(n) % width
     ran = np.where((np.arange(n) // width) % 2 == 1, lane < width - 3, True)
     assert np.array_equal(out_p[ran, 6].view(np.int32), out_s[ran, 6].view(np.int32))
@@ -1142,9 +1151,6 @@ def test_packet_terminator_lift_equals_terminator_lift(rt, rng, width):
     normalize3's normals bit for bit: points on triangles whose normals bend toward and away
     from the point (lifted and not), scales from 1e-6 to 1e6, far from the origin, normals not
     unit (tiny, huge, zero), barycentrics outside [0, 1], special values and random bits."""
-    import pyopencl as cl
-    from kernel_harness import build_test_program
-    from texray.device.features import compile_options
     if rt.kind != "pocl":
         pytest.skip("surface packets are PoCL's (shading/surface_packet.h)")
     n = 1 << 15
@@ -1169,17 +1175,8 @@ def test_packet_terminator_lift_equals_terminator_lift(rt, rng, width):
     rec[k2] = rng.choice(special, (k2.sum(), 23))
     k3 = kind == 3
     rec[k3] = rng.integers(0, 1 << 32, (k3.sum(), 23), dtype=np.uint64).astype(np.uint32).view(np.float32)
-    opts = {**compile_options(Features(triangles=True, vertex_normals=True, textures=True)), "TX_PACKET": width}
-    k = build_test_program(rt, (), _LIFT_KERNEL, [f"-D{a}={b}" for a, b in opts.items()])
-    mf = cl.mem_flags
-    bi = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=rec)
-    out_s = np.full((n, 3), np.nan, np.float32)
-    out_p = out_s.copy()
-    bs = cl.Buffer(rt.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out_s)
-    bp = cl.Buffer(rt.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=out_p)
-    k.lifts(rt.queue, (n // width,), None, bi, bs, bp, np.uint32(n // width))
-    cl.enqueue_copy(rt.queue, out_s, bs)
-    cl.enqueue_copy(rt.queue, out_p, bp)
+    out_s, out_p = _scalar_and_packet(rt, _LIFT_KERNEL, "lifts",
+                                      Features(triangles=True, vertex_normals=True, textures=True), width, rec, 3)
     same = (out_p.view(np.uint32) == out_s.view(np.uint32)) | (np.isnan(out_p) & np.isnan(out_s))
     bad = np.flatnonzero(~same.all(axis=1))
     assert bad.size == 0, f"{bad.size} lanes differ, e.g. record {rec[bad[0]]!r}: {out_p[bad[0]]!r} " \

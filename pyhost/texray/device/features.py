@@ -185,9 +185,9 @@ def cpu_avx512() -> bool:
 
 def avx512(f: Features, device_kind: str | None, rays: bool = False) -> bool:
     """TX_AVX512 for a program of features ``f`` on a device of ``device_kind``: PoCL's device
-    on a CPU with AVX-512 (:func:`cpu_avx512`), for the Tracer (``rays``), scenes of triangles
-    alone and packet programs (shadow rays) but those with a sphere, cylinder or mesh displaced
-    by the search (the measurements above PACKET_WIDTHS). ``TEXRAY_AVX512=0`` turns it off, ``=1`` on
+    on a CPU with AVX-512 (:func:`cpu_avx512`), for the Tracer (``rays``) and every program but
+    those with a sphere, cylinder or mesh displaced by the search (the measurements above
+    PACKET_WIDTHS). ``TEXRAY_AVX512=0`` turns it off, ``=1`` on
     for every PoCL program (A/B runs); neither where the CPU lacks it."""
     override = os.environ.get("TEXRAY_AVX512", "").strip()
     if override not in ("", "0", "1"):

@@ -46,12 +46,16 @@ class Rows:
     stage_s: dict = field(default_factory=dict)
 
 
+def launch_unit(adaptive) -> int:
+    """The rows a fused launch takes at least: adaptive sampling's tiles are whole blocks."""
+    return BLOCK_ROWS if adaptive is not None else 1
+
+
 def launch_samples(width, height, spp, adaptive=None) -> int:
     """Samples per pixel that a fused launch sums (the packet rule's input,
     texray.device.features.packet_width): fused_samples, within a round of adaptive sampling."""
-    if adaptive is not None:
-        return min(fused_samples(width, height, spp, BLOCK_ROWS), round_size(spp))
-    return fused_samples(width, height, spp)
+    n = fused_samples(width, height, spp, launch_unit(adaptive))
+    return min(n, round_size(spp)) if adaptive is not None else n
 
 
 def device_program(cs, device, local_size, samples=0):
@@ -88,10 +92,9 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
     per_ray = per_ray_bytes(cs, fused, aovs, adaptive)
     tile = plan_rows(width, band, per_ray, sum(cs.device_bytes().values()), rt.device,
                      memory_limit=memory_limit, tile_pixels=tile_pixels)
-    unit = BLOCK_ROWS if adaptive is not None else 1     # adaptive sampling's tiles: whole blocks
-    per_launch = fused_samples(width, height, spp, unit) if fused else 1
+    per_launch = fused_samples(width, height, spp, launch_unit(adaptive)) if fused else 1
     if fused:                                # a launch's pixel samples: MAX_FUSED_SAMPLES at most
-        tile = min(tile, fused_rows(width, per_launch, unit))
+        tile = min(tile, fused_rows(width, per_launch, launch_unit(adaptive)))
     if adaptive is not None and tile >= BLOCK_ROWS:
         tile -= tile % BLOCK_ROWS            # whole blocks per tile: the stopping rule's unit
     t0 = time.perf_counter()
