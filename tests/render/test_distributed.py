@@ -176,15 +176,21 @@ def test_a_band_the_cluster_loses_is_submitted_again(scenes_dir, device, client,
 def test_a_scene_the_cluster_loses_is_shipped_again(scenes_dir, device, client, many_bands):
     """Where the scene's scattered copies are lost (here: cancelled), the bands on it are
     cancelled with it; each is submitted again on a scene shipped again, not on the lost one
-    (which would lose it BAND_RETRIES more times: the flaky worker-killed test)."""
+    (which would lose it BAND_RETRIES more times: the flaky worker-killed test). Both workers
+    are held busy until the scene is cancelled, so that no band can finish before it is."""
     from texray.renderer.render import setup
     scene = _scene(scenes_dir)
     local = tx.render(scene, 48, 64, 4, device=device)
     s = setup(scene, 48, 64, 4, device=device)
+    go = dd.Event(f"texray-test-go-{os.getpid()}")
+    held = [client.submit(lambda name: dd.Event(name).wait(120), go.name, workers=[w], pure=False)
+            for w in client.scheduler_info()["workers"]]
     bands = distributed.submit_bands(client, s.cs, s.camera, 48, 64, 4, None, s.options)
     assert len(bands.futures) >= 3
     shipped, _, _ = distributed.ship(client, s.cs)
     client.cancel(shipped, force=True)
+    go.set()
+    assert all(f.result() for f in held)
     out = bands.collect()
     np.testing.assert_array_equal(out.rgb, local.rgb)
     again, _, info = distributed.ship(client, s.cs)
