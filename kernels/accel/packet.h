@@ -83,6 +83,12 @@ typedef struct {
      * tools/ab.py measured 0.97 of the textured meshes' frame; at 8 lanes the test cost more
      * than it saved (globe 1.03, bumped brick wall 1.02). */
     int octant;
+    /* Whether the shear fields above (uniform .. sz, rxx .. rzz) are set: packet_setup leaves
+     * them to packet_shear, which the first triangle leaf the packet reaches calls (most
+     * shadow packets and the sky's camera packets reach none; the shear was a third of
+     * packet_setup's time); `active`, the lanes packet_setup was given, decides uniform. */
+    int sheared;
+    pint active;
 } PacketRay;
 #define TX_PACKET_OCTANT (TX_PACKET == 16)
 
@@ -113,14 +119,10 @@ inline pfloat safe_inverse_p(pfloat x)
 /* The component of v along axis k (0, 1, 2) of a packet's uniform shear. */
 #define TX_PAXIS(k, x, y, z) ((k) == 0 ? (x) : ((k) == 1 ? (y) : (z)))
 
-/* What the scalar traversal derives per ray, lane by lane, with its arithmetic: woop_setup's
- * axes (woop_axes) as lane masks -- kz == i, and kx, ky from it, swapped where d[kz] < 0
- * -- and its shear rows unit3(k) - s unit3(kz), s = d[k] / d[kz]; safe_inverse, the signs
- * and the parallel flag (the shear rows only where the program has triangles: a scene of
- * spheres or quads spent 4-8% of its frame on them). The masks are combined with bit operations only: a select among
- * constant int vectors is what Oclgrind 21.10 miscomputes (woop_axes per lane in scalar
- * code measured 12% of a textured-mesh frame). `active`: the lanes to be traced, whose
- * axes decide whether the packet's shear is uniform (triangle_packet). */
+/* What the scalar traversal derives per ray, lane by lane, with its arithmetic: safe_inverse
+ * of the direction, its signs and the parallel flag; woop_setup's shear (packet_shear) is
+ * left to the first triangle leaf the packet reaches. `active`: the lanes to be traced,
+ * whose axes decide whether the packet's shear is uniform (triangle_packet). */
 inline void packet_setup(PacketRay* r, pint active)
 {
     pfloat dx = (pfloat)(TX_LANES(r->dir[0])), dy = (pfloat)(TX_LANES(r->dir[1])), dz = (pfloat)(TX_LANES(r->dir[2]));
@@ -137,7 +139,22 @@ inline void packet_setup(PacketRay* r, pint active)
         r->octant = mixed ? -1 : sx | sy << 1 | sz << 2;
     }
     r->uniform = 0;
-    if (!TX_TRIANGLES) return;                   /* the shear rows serve triangle_packet only */
+    r->sheared = 0;
+    r->active = active;
+}
+
+/* woop_setup lane by lane for the packet's lanes: its axes (woop_axes) as lane masks -- kz
+ * == i, and kx, ky from it, swapped where d[kz] < 0 -- and its shear rows unit3(k) - s
+ * unit3(kz), s = d[k] / d[kz] (triangle_packet's only: a scene of spheres or quads spent 4-8%
+ * of its frame on them). The masks are combined with bit operations only: a select among
+ * constant int vectors is what Oclgrind 21.10 miscomputes (woop_axes per lane in scalar
+ * code measured 12% of a textured-mesh frame). Once per packet, from the first triangle
+ * leaf it reaches (packet_shear_once). */
+inline void packet_shear(PacketRay* r)
+{
+    r->sheared = 1;
+    pint active = r->active;
+    pfloat dx = r->dx, dy = r->dy, dz = r->dz;
     pfloat adx = fabs(dx), ady = fabs(dy), adz = fabs(dz);
     pint cxy = adx > ady, cxz = adx > adz, cyz = ady > adz;
     pint z0 = cxy & cxz, z1 = ~cxy & cyz, z2 = ~(z0 | z1);            /* kz == 0, 1, 2 */
@@ -176,6 +193,9 @@ inline void packet_setup(PacketRay* r, pint active)
     r->ryz = PSEL_F(Y2, one, zero) - sy * uzz;
     r->rzx = sz * uzx; r->rzy = sz * uzy; r->rzz = sz * uzz;
 }
+
+/* The packet's shear, set where it is not yet (packet_shear). */
+#define packet_shear_once(r) do { if (!(r)->sheared) packet_shear(r); } while (0)
 
 #if TX_QUADS
 #include "geometry/quad_packet.h"     /* quad_intersect_packet: needs PacketRay and the lane selects */
@@ -339,11 +359,12 @@ inline pint prim_packet(TX_GEOM_PARAMS, const PacketRay* r, uint kind, uint i, p
 
 /* The leaf (first, ck) against the lanes m: the lanes with a hit. Triangles, quads and spheres
  * one at a time against the packet; every other kind lane by lane through leaf_hit. */
-inline pint leaf_any_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint ck, pint m)
+inline pint leaf_any_packet(TX_GEOM_PARAMS, PacketRay* r, uint first, uint ck, pint m)
 {
     uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
     pint hit = (pint)(0);
     if (TX_TRIANGLES && kind == PRIM_TRIANGLE) {
+        packet_shear_once(r);
         uint count = end > first ? end - first : 0u;     /* as leaf_hit: no index wraps */
         for (uint k = 0; k < count; ++k) {
             hit |= triangle_any_packet(r, tris + first + k, m & ~hit);
@@ -393,7 +414,7 @@ inline pint leaf_any_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint
  * bvh_any does. The same bounds as bvh_any: at most TX_STACK_SIZE entries (a push that
  * finds the stack full is dropped), at most nnodes wide nodes entered, each with an index
  * below nnodes (in a corrupt tree the lanes not yet hit answer 0). */
-inline pint bvh_any_packet(TX_GEOM_PARAMS, const PacketRay* r, pint active)
+inline pint bvh_any_packet(TX_GEOM_PARAMS, PacketRay* r, pint active)
 {
     pint occ = (pint)(0);
     if (nnodes == 0u || !any(active)) return occ;
@@ -447,10 +468,11 @@ inline void triangle_closest_packet(const PacketRay* r, __global const TriVerts*
 
 /* The leaf (first, ck) against the lanes m, nearer hits updating h: triangles, quads and
  * spheres one at a time against the packet; every other kind lane by lane through leaf_hit. */
-inline void leaf_closest_packet(TX_GEOM_PARAMS, const PacketRay* r, uint first, uint ck, pint m, PacketHit* h)
+inline void leaf_closest_packet(TX_GEOM_PARAMS, PacketRay* r, uint first, uint ck, pint m, PacketHit* h)
 {
     uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
     if (TX_TRIANGLES && kind == PRIM_TRIANGLE) {
+        packet_shear_once(r);
         uint count = end > first ? end - first : 0u;     /* as leaf_hit: no index wraps */
         for (uint k = 0; k < count; ++k)
             triangle_closest_packet(r, tris + first + k, first + k, m, h);
@@ -510,7 +532,7 @@ inline float packet_min(pfloat v)
  * (see triangle_closest_packet). The same bounds as bvh_closest: at most TX_STACK_SIZE
  * entries (a push that finds the stack full is dropped), at most nnodes wide nodes entered,
  * each with an index below nnodes. */
-inline PacketHit bvh_closest_packet(TX_GEOM_PARAMS, const PacketRay* r, pint active)
+inline PacketHit bvh_closest_packet(TX_GEOM_PARAMS, PacketRay* r, pint active)
 {
     PacketHit h;
     h.t = r->tmax; h.b1 = (pfloat)(0.0f); h.b2 = (pfloat)(0.0f); h.prim = (pint)(-1);

@@ -115,7 +115,7 @@ inline void light_visible_packet(const ShadowLanes* sl, uint m, const pfloat3* l
           & (ax <= TX_DIR_MAX) & (ay <= TX_DIR_MAX) & (az <= TX_DIR_MAX)
           & ((ax >= TX_DIR_MIN) | (ay >= TX_DIR_MIN) | (az >= TX_DIR_MIN));
     live &= pf3_dot(d, n) > 0.0f;
-    if (TX_SHADOWS) {                            /* without: every valid ray's light, as light_visible */
+    if (TX_SHADOWS && any(live)) {               /* without: every valid ray's light, as light_visible */
         /* lanes not traced: any valid ray (origin 0, direction +z) */
         PacketRay r;
         PSTORE(PSEL_F(live, o.x, (pfloat)(0.0f)), r.org[0]);

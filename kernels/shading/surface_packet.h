@@ -426,20 +426,30 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
         uint kn = packet_first_lane(vn);
         pfloat b1 = PLOAD(hb1), b2 = PLOAD(hb2);
         pfloat b0 = 1.0f - b1 - b2;
-        float nl[9][TX_PACKET];                  /* the three vertex normals, lane by lane */
-        for (uint j = 0; j < (uint)TX_PACKET; ++j) {
-            /* the three indices read once, each normal's three floats from them (a loop over
-             * the nine floats, c / 3 and c % 3, read the indices again for each: a fifth of
-             * render_fused_body's time on the textured meshes, perf) */
-            __global const TriShade* ts = tri_shade + pidx[vn[j] ? j : kn];
-            uint i0 = 3u * ts->v[0], i1 = 3u * ts->v[1], i2 = 3u * ts->v[2];
-            nl[0][j] = normals[i0]; nl[1][j] = normals[i0 + 1u]; nl[2][j] = normals[i0 + 2u];
-            nl[3][j] = normals[i1]; nl[4][j] = normals[i1 + 1u]; nl[5][j] = normals[i1 + 2u];
-            nl[6][j] = normals[i2]; nl[7][j] = normals[i2 + 1u]; nl[8][j] = normals[i2 + 2u];
+        /* every such lane on one triangle (a pixel's samples mostly are): its normals read
+         * once, as vectors of one value (packet_one_index: the same values, the same bits) */
+        int one_tri = packet_one_index(vn, pidx, kn);
+        pfloat3 n0, n1, n2;
+        if (one_tri) {
+            __global const TriShade* ts = tri_shade + pidx[kn];
+            n0 = pf3_splat(vload3(ts->v[0], normals)); n1 = pf3_splat(vload3(ts->v[1], normals));
+            n2 = pf3_splat(vload3(ts->v[2], normals));
+        } else {
+            float nl[9][TX_PACKET];              /* the three vertex normals, lane by lane */
+            for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+                /* the three indices read once, each normal's three floats from them (a loop
+                 * over the nine floats, c / 3 and c % 3, read the indices again for each: a
+                 * fifth of render_fused_body's time on the textured meshes, perf) */
+                __global const TriShade* ts = tri_shade + pidx[vn[j] ? j : kn];
+                uint i0 = 3u * ts->v[0], i1 = 3u * ts->v[1], i2 = 3u * ts->v[2];
+                nl[0][j] = normals[i0]; nl[1][j] = normals[i0 + 1u]; nl[2][j] = normals[i0 + 2u];
+                nl[3][j] = normals[i1]; nl[4][j] = normals[i1 + 1u]; nl[5][j] = normals[i1 + 2u];
+                nl[6][j] = normals[i2]; nl[7][j] = normals[i2 + 1u]; nl[8][j] = normals[i2 + 2u];
+            }
+            n0 = pf3(PLOAD(nl[0]), PLOAD(nl[1]), PLOAD(nl[2]));
+            n1 = pf3(PLOAD(nl[3]), PLOAD(nl[4]), PLOAD(nl[5]));
+            n2 = pf3(PLOAD(nl[6]), PLOAD(nl[7]), PLOAD(nl[8]));
         }
-        pfloat3 n0 = pf3(PLOAD(nl[0]), PLOAD(nl[1]), PLOAD(nl[2]));
-        pfloat3 n1 = pf3(PLOAD(nl[3]), PLOAD(nl[4]), PLOAD(nl[5]));
-        pfloat3 n2 = pf3(PLOAD(nl[6]), PLOAD(nl[7]), PLOAD(nl[8]));
         pfloat3 raw = pf3_add(pf3_add(pf3_scale(b0, n0), pf3_scale(b1, n1)), pf3_scale(b2, n2));
         use_vn = ((pint)(TX_LANES(vn)) != 0) & (pf3_dot(raw, raw) > 0.0f) & pf3_finite(raw);
         lift_vn = use_vn & (pf3_dot(raw, dir) < 0.0f);        /* seen from the normals' side */
@@ -447,17 +457,23 @@ static inline __attribute__((always_inline)) void surface_packet(const PacketRay
         if (any(lift_vn)) {
             /* surface_geometry's shadow-ray lift (shading/terminator.h) for the lanes lift_vn:
              * their triangles' corners and the unit vertex normals, as vectors */
-            float cl[9][TX_PACKET];
-            for (uint j = 0; j < (uint)TX_PACKET; ++j) {
-                __global const TriVerts* tv = tris + pidx[vn[j] ? j : kn];
-                float3 a = tri_p0(tv), b = tri_p1(tv), c = tri_p2(tv);
-                cl[0][j] = a.x; cl[1][j] = a.y; cl[2][j] = a.z;
-                cl[3][j] = b.x; cl[4][j] = b.y; cl[5][j] = b.z;
-                cl[6][j] = c.x; cl[7][j] = c.y; cl[8][j] = c.z;
+            pfloat3 q0, q1, q2;
+            if (one_tri) {
+                __global const TriVerts* tv = tris + pidx[kn];
+                q0 = pf3_splat(tri_p0(tv)); q1 = pf3_splat(tri_p1(tv)); q2 = pf3_splat(tri_p2(tv));
+            } else {
+                float cl[9][TX_PACKET];
+                for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+                    __global const TriVerts* tv = tris + pidx[vn[j] ? j : kn];
+                    float3 a = tri_p0(tv), b = tri_p1(tv), c = tri_p2(tv);
+                    cl[0][j] = a.x; cl[1][j] = a.y; cl[2][j] = a.z;
+                    cl[3][j] = b.x; cl[4][j] = b.y; cl[5][j] = b.z;
+                    cl[6][j] = c.x; cl[7][j] = c.y; cl[8][j] = c.z;
+                }
+                q0 = pf3(PLOAD(cl[0]), PLOAD(cl[1]), PLOAD(cl[2]));
+                q1 = pf3(PLOAD(cl[3]), PLOAD(cl[4]), PLOAD(cl[5]));
+                q2 = pf3(PLOAD(cl[6]), PLOAD(cl[7]), PLOAD(cl[8]));
             }
-            pfloat3 q0 = pf3(PLOAD(cl[0]), PLOAD(cl[1]), PLOAD(cl[2]));
-            pfloat3 q1 = pf3(PLOAD(cl[3]), PLOAD(cl[4]), PLOAD(cl[5]));
-            pfloat3 q2 = pf3(PLOAD(cl[6]), PLOAD(cl[7]), PLOAD(cl[8]));
             pfloat3 l = terminator_lift_packet(p, q0, q1, q2, pf3_normalize3(n0), pf3_normalize3(n1),
                                                pf3_normalize3(n2), b0, b1, b2);
             lift = pf3_sel(lift_vn, l, lift);

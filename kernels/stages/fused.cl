@@ -266,8 +266,11 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
          * without records: the same operations per lane as the records' path below */
         pfloat3 cv = pf3_sel(sv.valid, pf3(ambient.x * sv.kd.x, ambient.y * sv.kd.y, ambient.z * sv.kd.z),
                              pf3_splat(background.xyz));
+        /* a chunk without surfaces (every ray a miss: the sky) has no shadow rays or light
+         * terms: its lights are skipped, not traced with every lane masked off */
+        int lit = nlights && any(sv.valid);
         ShadowLanes sl;
-        if (nlights)
+        if (lit)
             shadow_origins_lanes(sv.p, sv.lift, sv.ng, sv.ns, sv.offset, sv.valid, &sl);
         /* cv += light_term where the light at lp_ (intensity li_, li_step_) is visible (vis) */
 #define TX_VIS_J(j) (vis[TX_MIN((uint)(j), m - 1u)] ? -1 : 0)
@@ -279,7 +282,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
         } while (0)
 #if TX_ONE_LIGHT
         uint block = light_block(spp, nlights);
-        if (nlights) {
+        if (lit) {
             float3 lposj[TX_CHUNK], lij[TX_CHUNK];
             for (uint j = 0; j < m; ++j) {
                 uint pick = light_pick(sample0 + k0 + j - lp[j] * nsamples, pattern[lp[j]], nlights, block);
@@ -291,7 +294,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
             TX_ADD_LIGHT(lpv, liv);
         }
 #else
-        FOR_EACH_LIGHT(i, nlights) {
+        if (lit) FOR_EACH_LIGHT(i, nlights) {
             pfloat3 lpv = pf3_splat(vload3(0, lights[i].position));
             light_visible_packet(&sl, m, &lpv, TX_GEOM_ARGS, vis);
             TX_ADD_LIGHT(lpv, pf3_splat(light_intensity(vload3(0, lights[i].intensity), nlights)));
@@ -319,10 +322,18 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
             }
         }
 #if TX_PACKET
+        /* as above: a chunk without surfaces has no shadow rays or light terms */
+        int lit = 0;
+        for (uint j = 0; j < m; ++j) lit |= s[j].valid != 0u;
+        lit = lit && nlights;
         /* the shadow origins as vectors, once for every light (shading/shadow.h) */
         ShadowLanes sl;
-        if (nlights)
+        if (lit)
             shadow_origins_packet(s, m, &sl);
+#else
+        /* one sample: light_visible skips a miss's shadow rays itself (a test of lit here
+         * changed how Intel's runtime vectorizes the loop, and its rounding in the last bit) */
+        const int lit = nlights != 0u;
 #endif
         /* the shadow rays: with TX_ONE_LIGHT each sample's toward the light it picked
          * (core/sampler.h light_pick), as one packet for the chunk; otherwise each light's
@@ -331,7 +342,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
         uint block = light_block(spp, nlights);
         float3 lposj[TX_CHUNK];
         uint pick[TX_CHUNK];
-        if (nlights) {
+        if (lit) {
             for (uint j = 0; j < m; ++j) {
                 pick[j] = light_pick(sample0 + k0 + j - lp[j] * nsamples, pattern[lp[j]], nlights, block);
                 lposj[j] = vload3(0, lights[pick[j]].position);
@@ -356,7 +367,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #endif
         }
 #else
-        FOR_EACH_LIGHT(i, nlights) {
+        if (lit) FOR_EACH_LIGHT(i, nlights) {
             float3 lpos = vload3(0, lights[i].position);
 #if TX_PACKET
             float3 lposj[TX_CHUNK];
