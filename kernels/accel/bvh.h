@@ -32,7 +32,7 @@ inline float box_entry_parallel(float4 lo, float4 hi, float3 org, float3 dir, fl
     if (!(slab_clip(org.x, dir.x, lo.x, hi.x, grow, &tn, &tf) && slab_clip(org.y, dir.y, lo.y, hi.y, grow, &tn, &tf)
           && slab_clip(org.z, dir.z, lo.z, hi.z, grow, &tn, &tf)))
         return INFINITY;
-    return tn <= tf ? tn : INFINITY;
+    return tn <= tf && tf > 0.0f ? tn : INFINITY;
 }
 
 /* Entry distances of the ray into the four child boxes of a wide node, INFINITY
@@ -43,7 +43,14 @@ inline float box_entry_parallel(float4 lo, float4 hi, float3 org, float3 dir, fl
  * org is finite and inv_d (safe_inverse) finite and nonzero, so no distance is
  * NaN, not even for the empty boxes; the lane test tn <= tf is false for NaN
  * anyway. A ray with a zero direction component (par) re-tests its missed
- * lanes exactly, so the common case pays one branch. */
+ * lanes exactly, so the common case pays one branch.
+ * A box the ray leaves at t <= 0 is a miss too, even where tn <= tf: with tmin >= 0 that
+ * is tn = tf = 0, an origin exactly on the box's far face or in a flat box, and every
+ * surface point in the box lies at an exact t <= 0 (the box's exit bounds it): a hit there
+ * could only be the rounding of the ray's own origin (which the triangle test's error bound
+ * delta_t already rejects), never one at t > 0. A shadow ray from
+ * a ground plane started in the plane's flat leaf box and tested its triangles; it no longer
+ * does (tools/ab.py: textured meshes 0.94). For tmin > 0 such a box already fails tn <= tf. */
 inline float4 box4_entry(__global const float4* nd, float3 org, float3 dir, float3 inv_d, int nx, int ny, int nz,
                          float tmin, float tmax, int par)
 {
@@ -54,7 +61,7 @@ inline float4 box4_entry(__global const float4* nd, float3 org, float3 dir, floa
     float4 tn = TX_MAX(TX_MAX(tnx, tny), TX_MAX(tnz, (float4)(tmin)));
     float4 tf = TX_MIN(TX_MIN(tfx, tfy), tfz) * (1.0f + 2.0f * gamma_n(3.0f));
     tf = TX_MIN(tf, (float4)(tmax));
-    float4 t = tn <= tf ? tn : (float4)(INFINITY);
+    float4 t = ((tn <= tf) & (tf > 0.0f)) ? tn : (float4)(INFINITY);
     if (par) {
         float l[4] = { t.x, t.y, t.z, t.w };
         float ax[4] = { lox.x, lox.y, lox.z, lox.w }, ay[4] = { loy.x, loy.y, loy.z, loy.w };

@@ -238,7 +238,7 @@ inline pfloat box_entry_packet(const PacketRay* r, float lox, float hix, float l
     pfloat tn = PMAX(PMAX(tnx, tny), PMAX(tnz, r->tmin));
     pfloat tf = PMIN(PMIN(tfx, tfy), tfz) * (1.0f + 2.0f * gamma_n(3.0f));
     tf = PMIN(tf, tmax);
-    pfloat t = PSEL_F(tn <= tf, tn, (pfloat)(INFINITY));
+    pfloat t = PSEL_F((tn <= tf) & (tf > 0.0f), tn, (pfloat)(INFINITY));
     pint redo = m & r->par & (t == INFINITY);
     if (any(redo)) {                             /* rare: a direction component is zero */
         float tl[TX_PACKET], tl_max[TX_PACKET];

@@ -149,6 +149,66 @@ def test_packets_equal_scalar_on_rays_in_box_faces(device, monkeypatch):
     assert occ.all(), f"{(~occ).sum()} rays along the face x = 1 missed the square's edge"
 
 
+
+def _segments_meet_triangles(org, target, tris, margin):
+    """Whether the float64 segments org -> target (t in (margin, 1)) meet any of the triangles
+    tris (k, 3, 3) with barycentrics above ``margin`` (below 0 for a margin < 0: the triangles
+    grown)."""
+    d = target - org
+    hit = np.zeros(len(org), bool)
+    for a, b, c in tris:
+        e1, e2 = b - a, c - a
+        p = np.cross(d, e2)
+        det = p @ e1
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / det
+            s = org - a
+            u = np.einsum("ij,ij->i", s, p) * inv
+            q = np.cross(s, e1)
+            v = np.einsum("ij,ij->i", q, d) * inv
+            t = (q @ e2) * inv
+        hit |= (np.abs(det) > 0) & (u > margin) & (v > margin) & (1 - u - v > margin) & (t > margin) & (t < 1)
+    return hit
+
+
+def test_rays_leave_a_plane_from_the_plane(device, rng, monkeypatch):
+    """Rays with tmin = 0 from points exactly on a ground plane (two triangles: a flat leaf
+    box the ray leaves at t = 0), beside and inside the box of a tetrahedron standing on it: a
+    box the ray leaves at t <= 0 is not entered (accel/bvh.h box4_entry, packet.h
+    box_entry_packet: no hit in it could pass the triangle test's t > 0 bound), one it starts in
+    is, and the answers are the float64 reference's -- a ray up is occluded exactly where its
+    segment meets the tetrahedron, a ray down never, and the plane never occludes its own points;
+    every packet width as the scalar traversal."""
+    ground = np.array([[-4, 0, -4], [4, 0, -4], [4, 0, 4], [-4, 0, 4]], np.float64)
+    base = np.array([[-0.5, 0.0, -0.5], [0.5, 0.0, -0.5], [0.0, 0.0, 0.5]])
+    apex = np.array([0.0, 1.0, 0.0])
+    tet = np.array([[base[0], base[1], apex], [base[1], base[2], apex], [base[2], base[0], apex]])
+    scene = tx.Scene()
+    scene.add(tx.Mesh(ground, np.array([[0, 2, 1], [0, 3, 2]]), name="ground"))
+    scene.add(tx.Mesh(np.concatenate([base, apex[None]]), np.array([[0, 1, 3], [1, 2, 3], [2, 0, 3], [0, 2, 1]]),
+                      name="tetrahedron"))
+    tr = _tracers(monkeypatch, scene, device)
+    # ground points around the tetrahedron, half of them in its box's footprint (beside its base)
+    xz = np.concatenate([rng.uniform(-0.5, 0.5, (3000, 2)), rng.uniform(-2, 2, (3000, 2))]).astype(np.float32)
+    org = np.stack([xz[:, 0], np.zeros(len(xz), np.float32), xz[:, 1]], axis=1).astype(np.float64)
+    inside_base = _segments_meet_triangles(org + [0, 1, 0], org - [0, 1, 0], base[None], -1e-4)
+    org = org[~inside_base]
+    target = rng.uniform([-0.6, 0.05, -0.6], [0.6, 1.2, 0.6], (len(org), 3)).astype(np.float32).astype(np.float64)
+    up = _assert_same(tr, org, target - org)
+    inner = _segments_meet_triangles(org, target, tet, 1e-5)
+    outer = _segments_meet_triangles(org, target, tet, -1e-5)
+    sure = inner == outer
+    in_box = (np.abs(org[:, 0]) < 0.5) & (np.abs(org[:, 2]) < 0.5)
+    assert sure.mean() > 0.99 and 0.2 < inner.mean() < 0.8 and inner[in_box].mean() > 0.2
+    bad = np.flatnonzero(sure & (up != inner))
+    assert bad.size == 0, f"{bad.size} rays from the plane disagree with the float64 test, e.g. {bad[:5]}"
+    down = ((target - org) * np.array([1.0, -1.0, 1.0])).astype(np.float32)
+    for w, t in tr.items():
+        occ, _ = t.occluded(org.astype(np.float32), down, 0.0, 1.0)
+        assert not occ.any(), f"width {w}: {occ.sum()} rays down from the plane were occluded"
+        h = t.closest(org.astype(np.float32), down, 0.0, 2.0)
+        assert (h.prim < 0).all(), f"width {w}: {(h.prim >= 0).sum()} rays down from the plane hit something"
+
 def test_packets_are_watertight_on_shared_edges(device, monkeypatch):
     """Rays through the vertices and edge midpoints of a closed icosphere, from inside:
     every one hits (scalar and packet alike), none slips between triangles."""
