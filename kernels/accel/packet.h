@@ -26,7 +26,10 @@
  * bit for bit). Leaves of the other kinds (cylinders, displaced shapes, instances) are tested lane by lane by
  * the scalar leaf_hit (geometry/dispatch.h); closest-hit packets leave instanced scenes (hits carry the instance) to the
  * scalar traversal. The host compiles packets in only where they measured faster
- * (texray.device.features.packet_width). */
+ * (texray.device.features.packet_width).
+ * A 16-lane packet whose lanes share their direction signs tests a node's four boxes first
+ * against its beam (beam_box4: bounds of its lanes, one float4 test) and each box the beam
+ * may enter lane by lane: the same lanes enter the same boxes. */
 #ifndef TEXRAY_PACKET_H
 #define TEXRAY_PACKET_H
 #include "accel/bvh.h"
@@ -89,8 +92,18 @@ typedef struct {
      * packet_setup's time); `active`, the lanes packet_setup was given, decides uniform. */
     int sheared;
     pint active;
+    /* The beam (beam_box4): where `beam` is 1 -- the active lanes share their direction signs
+     * (octant >= 0) and none is parallel to an axis -- the bounds over the active lanes of
+     * their origins and tmin (bmin: the smallest, .w tmin; bmax: the largest, .w tmax) and of
+     * the inverse directions (ivmin, ivmax). */
+    int beam;
+    float4 bmin, bmax, ivmin, ivmax;
 } PacketRay;
 #define TX_PACKET_OCTANT (TX_PACKET == 16)
+/* The beam test (beam_box4) needs the packet's octant. */
+#ifndef TX_PACKET_BEAM
+#define TX_PACKET_BEAM TX_PACKET_OCTANT
+#endif
 
 /* Lane j of the packet: the ray org + t dir, t in (tmin, tmax). */
 inline void packet_set_lane(PacketRay* r, uint j, float3 org, float3 dir, float tmin, float tmax)
@@ -114,6 +127,32 @@ inline pfloat safe_inverse_p(pfloat x)
 {
     pfloat big = as_pfloat((as_pint(x) & (pint)(0x80000000)) | (pint)(as_int(TX_PARALLEL_INV)));
     return PSEL_F(fabs(x) < 7.888609e-31f, big, 1.0f / x);
+}
+
+/* The smallest lane of v (the packet's nearest entry into a box: the traversal's order). */
+inline float packet_min(pfloat v)
+{
+#if TX_PACKET == 16
+    float8 v8 = TX_MIN(v.lo, v.hi);
+    float4 v4 = TX_MIN(v8.lo, v8.hi);
+#else
+    float4 v4 = TX_MIN(v.lo, v.hi);
+#endif
+    float2 v2 = TX_MIN(v4.lo, v4.hi);
+    return TX_MIN(v2.x, v2.y);
+}
+
+/* The largest lane of v. */
+inline float packet_max(pfloat v)
+{
+#if TX_PACKET == 16
+    float8 v8 = TX_MAX(v.lo, v.hi);
+    float4 v4 = TX_MAX(v8.lo, v8.hi);
+#else
+    float4 v4 = TX_MAX(v.lo, v.hi);
+#endif
+    float2 v2 = TX_MAX(v4.lo, v4.hi);
+    return TX_MAX(v2.x, v2.y);
 }
 
 /* The component of v along axis k (0, 1, 2) of a packet's uniform shear. */
@@ -141,6 +180,18 @@ inline void packet_setup(PacketRay* r, pint active)
     r->uniform = 0;
     r->sheared = 0;
     r->active = active;
+    r->beam = TX_PACKET_BEAM && r->octant >= 0 && !any(active & r->par);
+    if (r->beam) {
+        pfloat inf = (pfloat)(INFINITY), ninf = (pfloat)(-INFINITY);
+#define TX_BMIN(v) packet_min(PSEL_F(active, v, inf))
+#define TX_BMAX(v) packet_max(PSEL_F(active, v, ninf))
+        r->bmin = (float4)(TX_BMIN(r->ox), TX_BMIN(r->oy), TX_BMIN(r->oz), TX_BMIN(r->tmin));
+        r->bmax = (float4)(TX_BMAX(r->ox), TX_BMAX(r->oy), TX_BMAX(r->oz), TX_BMAX(r->tmax));
+        r->ivmin = (float4)(TX_BMIN(r->ivx), TX_BMIN(r->ivy), TX_BMIN(r->ivz), 0.0f);
+        r->ivmax = (float4)(TX_BMAX(r->ivx), TX_BMAX(r->ivy), TX_BMAX(r->ivz), 0.0f);
+#undef TX_BMIN
+#undef TX_BMAX
+    }
 }
 
 /* woop_setup lane by lane for the packet's lanes: its axes (woop_axes) as lane masks -- kz
@@ -211,6 +262,43 @@ inline void packet_shear(PacketRay* r)
 #else
 #define TX_TRI_GEOM_PACKET 0
 #endif
+
+/* Whether any lane of the packet can enter each of a wide node's four boxes (the beam test,
+ * interval arithmetic over the lanes, the packet culling of Wald, Boulos and Shirley 2007): -1 where one
+ * may, 0 where none can. Each lane's box4_entry arithmetic -- (plane - o) * iv per slab, the
+ * largest near distance and tmin against the smallest far distance scaled by 1 + 2 gamma(3)
+ * and tmax, and the far distance above 0 -- is a chain of operations each monotone in its
+ * inputs, and float rounding is monotone too, so the same operations on the bounds of the
+ * lanes' origins, inverse directions and intervals (PacketRay.bmin .. ivmax) bound every lane's
+ * near distance from below and far distance from above: a box the beam misses, every lane
+ * misses. (The products' bounds take both ends of the inverse directions' interval: their
+ * signs are the packet's octant, the differences' signs are not known.) One float4 test for
+ * the four boxes, in place of four lane-by-lane tests where no lane enters. The lanes that
+ * do enter are still found by box_entry_packet, so every answer is the same. */
+inline int4 beam_box4(const PacketRay* r, float4 lox, float4 hix, float4 loy, float4 hiy, float4 loz, float4 hiz,
+                      float tmax)
+{
+    int o = r->octant;
+    float4 bmin = r->bmin, bmax = r->bmax, ivmin = r->ivmin, ivmax = r->ivmax;
+    /* per axis: the near plane's difference bound (the largest origin for a positive
+     * direction, the smallest for a negative one: the smallest product either way) and the
+     * far plane's (the other end) */
+#define TX_BEAM_AXIS(bit, lo, hi, c, tn, tf) do { \
+        float4 nd_ = (o & (bit)) ? (hi) - (float4)(bmin.c) : (lo) - (float4)(bmax.c); \
+        float4 fd_ = (o & (bit)) ? (lo) - (float4)(bmax.c) : (hi) - (float4)(bmin.c); \
+        tn = TX_MIN(nd_ * ivmin.c, nd_ * ivmax.c); \
+        tf = TX_MAX(fd_ * ivmin.c, fd_ * ivmax.c); \
+    } while (0)
+    float4 tnx, tfx, tny, tfy, tnz, tfz;
+    TX_BEAM_AXIS(1, lox, hix, x, tnx, tfx);
+    TX_BEAM_AXIS(2, loy, hiy, y, tny, tfy);
+    TX_BEAM_AXIS(4, loz, hiz, z, tnz, tfz);
+#undef TX_BEAM_AXIS
+    float4 tn = TX_MAX(TX_MAX(tnx, tny), TX_MAX(tnz, (float4)(bmin.w)));
+    float4 tf = TX_MIN(TX_MIN(tfx, tfy), tfz) * (1.0f + 2.0f * gamma_n(3.0f));
+    tf = TX_MIN(tf, (float4)(tmax));
+    return (tn <= tf) & (tf > 0.0f);
+}
 
 /* box4_entry (accel/bvh.h) for one box and every lane, each with its interval
  * (r->tmin, tmax): the entry distance, INFINITY for a miss; lanes in m that are parallel to
@@ -396,7 +484,7 @@ inline pint leaf_any_packet(TX_GEOM_PARAMS, PacketRay* r, uint first, uint ck, p
 
 /* One child lane s_ (s0..s3) of the wide node in bvh_any_packet: the lanes of m that enter
  * its box test its leaf at once or push it with their mask, as bvh_any does per ray. */
-#define TX_PACKET_CHILD(s_) do { \
+#define TX_PACKET_CHILD(s_) do { if (bh.s_) { \
     pint e_ = m & ~occ & (box_entry_packet(r, lox.s_, hix.s_, loy.s_, hiy.s_, loz.s_, hiz.s_, r->tmax, m & ~occ) \
                           < INFINITY); \
     if (any(e_)) { \
@@ -407,7 +495,7 @@ inline pint leaf_any_packet(TX_GEOM_PARAMS, PacketRay* r, uint first, uint ck, p
             stack[sp] = ch.s_; stack_m[sp] = e_; ++sp; \
         } \
     } \
-} while (0)
+} } while (0)
 
 /* bvh_any (accel/bvh.h) for the lanes `active` of the packet: -1 where something is hit
  * in the lane's (tmin, tmax). The callers check every active ray with ray_valid first, as
@@ -423,11 +511,13 @@ inline pint bvh_any_packet(TX_GEOM_PARAMS, PacketRay* r, pint active)
     int sp = 0;
     uint node = 0u, budget = nnodes;
     pint m = active;
+    int beam = r->beam && !any(active & ~r->active);     /* its bounds hold setup's lanes only */
     for (;;) {
         if (node >= nnodes || budget-- == 0u) return occ;
         __global const float4* nd = nodes + 8u * node;
         float4 lox = nd[0], hix = nd[1], loy = nd[2], hiy = nd[3], loz = nd[4], hiz = nd[5];
         uint4 ch = as_uint4(nd[6]), kk = as_uint4(nd[7]);
+        int4 bh = beam ? beam_box4(r, lox, hix, loy, hiy, loz, hiz, r->bmax.w) : (int4)(-1);
         TX_PACKET_CHILD(s0);
         TX_PACKET_CHILD(s1);
         TX_PACKET_CHILD(s2);
@@ -505,19 +595,6 @@ inline void leaf_closest_packet(TX_GEOM_PARAMS, PacketRay* r, uint first, uint c
     h->prim = (pint)(TX_LANES(hp));
 }
 
-/* The smallest lane of v (the packet's nearest entry into a box: the traversal's order). */
-inline float packet_min(pfloat v)
-{
-#if TX_PACKET == 16
-    float8 v8 = TX_MIN(v.lo, v.hi);
-    float4 v4 = TX_MIN(v8.lo, v8.hi);
-#else
-    float4 v4 = TX_MIN(v.lo, v.hi);
-#endif
-    float2 v2 = TX_MIN(v4.lo, v4.hi);
-    return TX_MIN(v2.x, v2.y);
-}
-
 /* Compare-exchange of two children (packet entry, child, count_kind, lane mask, entries). */
 #define TX_PSORT2(i, j) do { if (n[j] < n[i]) { float nt_ = n[i]; n[i] = n[j]; n[j] = nt_; \
     uint u_ = c[i]; c[i] = c[j]; c[j] = u_; u_ = k[i]; k[i] = k[j]; k[j] = u_; \
@@ -543,6 +620,7 @@ inline PacketHit bvh_closest_packet(TX_GEOM_PARAMS, PacketRay* r, pint active)
     int sp = 0;
     uint node = 0u, ck = 0u, budget = nnodes;
     pint m = active;
+    int beam = r->beam && !any(active & ~r->active);     /* its bounds hold setup's lanes only */
     for (;;) {
         if (ck != 0u) {
             leaf_closest_packet(TX_GEOM_ARGS, r, node, ck, m, &h);
@@ -555,10 +633,14 @@ inline PacketHit bvh_closest_packet(TX_GEOM_PARAMS, PacketRay* r, pint active)
             pint em[4];
             float n[4];
             uint c[4] = { ch.x, ch.y, ch.z, ch.w }, k[4] = { kk.x, kk.y, kk.z, kk.w };
-            et[0] = box_entry_packet(r, lox.s0, hix.s0, loy.s0, hiy.s0, loz.s0, hiz.s0, h.t, m);
-            et[1] = box_entry_packet(r, lox.s1, hix.s1, loy.s1, hiy.s1, loz.s1, hiz.s1, h.t, m);
-            et[2] = box_entry_packet(r, lox.s2, hix.s2, loy.s2, hiy.s2, loz.s2, hiz.s2, h.t, m);
-            et[3] = box_entry_packet(r, lox.s3, hix.s3, loy.s3, hiy.s3, loz.s3, hiz.s3, h.t, m);
+            /* the beam's far bound: the farthest current hit of the lanes in flight */
+            int4 bh = beam ? beam_box4(r, lox, hix, loy, hiy, loz, hiz, packet_max(PSEL_F(m, h.t, (pfloat)(-INFINITY))))
+                           : (int4)(-1);
+            pfloat miss = (pfloat)(INFINITY);
+            et[0] = bh.s0 ? box_entry_packet(r, lox.s0, hix.s0, loy.s0, hiy.s0, loz.s0, hiz.s0, h.t, m) : miss;
+            et[1] = bh.s1 ? box_entry_packet(r, lox.s1, hix.s1, loy.s1, hiy.s1, loz.s1, hiz.s1, h.t, m) : miss;
+            et[2] = bh.s2 ? box_entry_packet(r, lox.s2, hix.s2, loy.s2, hiy.s2, loz.s2, hiz.s2, h.t, m) : miss;
+            et[3] = bh.s3 ? box_entry_packet(r, lox.s3, hix.s3, loy.s3, hiy.s3, loz.s3, hiz.s3, h.t, m) : miss;
             for (int i = 0; i < 4; ++i) {
                 em[i] = m & (et[i] < INFINITY);
                 n[i] = packet_min(PSEL_F(em[i], et[i], (pfloat)(INFINITY)));

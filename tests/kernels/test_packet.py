@@ -1246,3 +1246,119 @@ def test_packet_terminator_lift_equals_terminator_lift(rt, rng, width):
     lifted = np.all(np.isfinite(out_s), axis=1) & np.any(out_s != 0, axis=1)
     assert (lifted & plain).sum() > 3000 and (~lifted & plain).sum() > 3000
     assert np.isnan(out_s).any()
+
+
+_BEAM_KERNEL = r"""
+#include "texray.cl"
+
+/* Work-item i: rays TX_PACKET i .. (8 floats each: org, dir, tmin, tmax) as one packet, every
+ * lane active; against the nq wide nodes' boxes of boxes + 24 (i nq + q) .. (lo_x, hi_x, lo_y,
+ * hi_y, lo_z, hi_z as float4s of four children): res[4 (i nq + q) + c] = bit 0 the beam test's
+ * answer for child c (beam_box4, with the packet's largest tmax), bit 1 whether a lane enters
+ * it (box_entry_packet), bit 2 whether the packet has a beam. */
+__kernel void beam_boxes(__global const float* rays, __global const float* boxes, __global int* res, uint n, uint nq)
+{
+    uint i = get_global_id(0);
+    if (i >= n) return;
+    PacketRay r;
+    for (uint j = 0; j < (uint)TX_PACKET; ++j) {
+        __global const float* a = rays + 8 * (TX_PACKET * i + j);
+        packet_set_lane(&r, j, vload3(0, a), vload3(0, a + 3), a[6], a[7]);
+    }
+    pint act = (pint)(-1);
+    packet_setup(&r, act);
+    for (uint q = 0; q < nq; ++q) {
+        __global const float4* b = (__global const float4*)(boxes + 24 * (i * nq + q));
+        float4 lox = b[0], hix = b[1], loy = b[2], hiy = b[3], loz = b[4], hiz = b[5];
+        int4 bh = r.beam ? beam_box4(&r, lox, hix, loy, hiy, loz, hiz, r.bmax.w) : (int4)(-1);
+        int bl[4] = { bh.s0, bh.s1, bh.s2, bh.s3 };
+        float l[6][4];
+        vstore4(lox, 0, l[0]); vstore4(hix, 0, l[1]); vstore4(loy, 0, l[2]);
+        vstore4(hiy, 0, l[3]); vstore4(loz, 0, l[4]); vstore4(hiz, 0, l[5]);
+        for (int c = 0; c < 4; ++c) {
+            pint e = act & (box_entry_packet(&r, l[0][c], l[1][c], l[2][c], l[3][c], l[4][c], l[5][c], r.tmax, act)
+                            < INFINITY);
+            res[4 * (i * nq + q) + c] = (bl[c] != 0) | (any(e) ? 2 : 0) | (r.beam ? 4 : 0);
+        }
+    }
+}
+"""
+
+
+def test_the_beam_test_never_drops_a_box_a_lane_enters(rt, rng):
+    """beam_box4 (accel/packet.h: the interval-arithmetic test of a 16-lane packet against a
+    wide node's four boxes) answers 0 only for boxes no lane's box_entry_packet enters, on
+    packets as the renderer makes them (a pixel's samples' camera rays, shadow rays toward one
+    light) and wider ones, at scales 1e-4 to 1e4 and 1e4 from the origin, with intervals
+    (tmin > 0, short tmax), against boxes around the rays, boxes whose faces pass exactly
+    through points of one lane's ray or with a corner on one (that lane at its decision's edge:
+    without the far distances' 1 + 2 gamma(3) the beam drops boxes), flat boxes, boxes
+    behind the origins and empty ones; and it does cull (most boxes no lane enters), so the
+    traversals skip their lane-by-lane tests. Packets whose lanes' direction signs differ
+    have no beam."""
+    import pyopencl as cl
+    from kernel_harness import build_test_program
+    from texray.device.features import compile_options
+    width, npk, nq = 16, 2048, 16
+    scale = 10.0 ** rng.uniform(-4, 4, (npk, 1, 1))
+    centre = rng.normal(size=(npk, 1, 3)) * scale * np.where(rng.random((npk, 1, 1)) < 0.2, 1e4 / scale, 1.0)
+    spread = scale * 10.0 ** rng.uniform(-4, -0.5, (npk, 1, 1))
+    spread[rng.random(npk) < 0.2] = 0.0                            # one ray in every lane: tight bounds
+    org = centre + rng.normal(size=(npk, width, 3)) * spread
+    aim = centre + rng.normal(size=(npk, 1, 3)) * scale * 3 + rng.normal(size=(npk, width, 3)) * spread
+    d = aim - org
+    wide = rng.random(npk) < 0.25                                  # incoherent packets: mixed signs
+    d[wide] = rng.normal(size=(wide.sum(), width, 3)) * scale[wide]
+    tmin = np.where(rng.random((npk, width)) < 0.3, rng.uniform(0, 0.5, (npk, width)), 0.0)
+    tmax = np.where(rng.random((npk, width)) < 0.5, rng.uniform(0.5, 1.0, (npk, width)), 1.0)
+    tmax[rng.random(npk) < 0.2] = np.inf
+    rays = np.concatenate([org, d, tmin[..., None], tmax[..., None]], axis=2).astype(np.float32)
+    # boxes: around the packet's path, some faces exactly through a lane's ray point
+    t = rng.uniform(-0.2, 1.2, (npk, nq, 4, 1))
+    lane = rng.integers(0, width, (npk, nq, 4))
+    pk = np.arange(npk)[:, None, None]
+    p = rays[pk, lane, 0:3] + t * rays[pk, lane, 3:6]
+    half = scale[:, :, :, None].reshape(npk, 1, 1, 1) * 10.0 ** rng.uniform(-3, 0, (npk, nq, 4, 3))
+    off = rng.normal(size=(npk, nq, 4, 3)) * half * 2
+    lo, hi = p + off - half, p + off + half
+    edge = rng.random((npk, nq, 4)) < 0.4                          # a face through the lane's point
+    ax = rng.integers(0, 3, (npk, nq, 4))
+    side = rng.random((npk, nq, 4)) < 0.5
+    pe = p.astype(np.float32)
+    for a in range(3):
+        sel = edge & (ax == a)
+        lo[..., a] = np.where(sel & side, pe[..., a], lo[..., a])
+        hi[..., a] = np.where(sel & ~side, pe[..., a], hi[..., a])
+    lo, hi = np.minimum(lo, hi), np.maximum(lo, hi)
+    corner = rng.random((npk, nq, 4)) < 0.3                        # a corner on the lane's point: the
+    below = rng.random((npk, nq, 4, 3)) < 0.5                      # ray through it or just past it
+    lo = np.where(corner[..., None] & ~below, pe, lo)
+    hi = np.where(corner[..., None] & below, pe, hi)
+    lo = np.where(corner[..., None] & below, pe - 2 * half, lo)
+    hi = np.where(corner[..., None] & ~below, pe + 2 * half, hi)
+    flat = rng.random((npk, nq, 4)) < 0.1                          # flat boxes
+    hi[..., 1] = np.where(flat, lo[..., 1], hi[..., 1])
+    empty = rng.random((npk, nq, 4)) < 0.05
+    lo[empty], hi[empty] = np.inf, -np.inf
+    boxes = np.stack([lo[..., 0], hi[..., 0], lo[..., 1], hi[..., 1], lo[..., 2], hi[..., 2]], axis=2)
+    boxes = np.ascontiguousarray(boxes.astype(np.float32))         # (npk, nq, 6, 4)
+    opts = {**compile_options(Features(triangles=True)), "TX_PACKET": width}
+    k = build_test_program(rt, (), _BEAM_KERNEL, [f"-D{a}={b}" for a, b in opts.items()])
+    mf = cl.mem_flags
+    br = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=rays)
+    bb = cl.Buffer(rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=boxes)
+    res = np.zeros(npk * nq * 4, np.int32)
+    bo = cl.Buffer(rt.context, mf.WRITE_ONLY, res.nbytes)
+    k.beam_boxes(rt.queue, (npk,), None, br, bb, bo, np.uint32(npk), np.uint32(nq))
+    cl.enqueue_copy(rt.queue, res, bo)
+    res = res.reshape(npk, nq * 4)
+    beam, enters, has = (res & 1) != 0, (res & 2) != 0, (res & 4) != 0
+    assert has[~wide].mean() > 0.9 and not has[wide].all(), "coherent packets should have a beam"
+    dropped = has & ~beam & enters
+    assert not dropped.any(), f"{dropped.sum()} boxes a lane enters failed the beam test, e.g. packet " \
+                              f"{np.argwhere(dropped)[:3]}"
+    missed = has & ~enters
+    assert missed.sum() > 1000 and (~beam[missed]).mean() > 0.5, \
+        f"the beam culled {(~beam[missed]).mean():.1%} of the {missed.sum()} boxes no lane enters"
+    near = has & enters
+    assert near.sum() > 1000
