@@ -27,7 +27,7 @@
  * the scalar leaf_hit (geometry/dispatch.h); closest-hit packets leave instanced scenes (hits carry the instance) to the
  * scalar traversal. The host compiles packets in only where they measured faster
  * (texray.device.features.packet_width).
- * A 16-lane packet whose lanes share their direction signs tests a node's four boxes first
+ * A packet whose lanes share their direction signs tests a node's four boxes first
  * against its beam (beam_box4: bounds of its lanes, one float4 test) and each box the beam
  * may enter lane by lane: the same lanes enter the same boxes. */
 #ifndef TEXRAY_PACKET_H
@@ -80,11 +80,11 @@ typedef struct {
     int uniform, kx, ky, kz;
     pfloat okx, oky, okz, sx, sy, sz;
     /* The traced lanes' direction signs where they all share them (bit 0: x < 0, 1: y, 2: z;
-     * nearly every packet of camera or shadow rays), else -1: box_entry_packet then picks
-     * each slab's near and far planes once for the packet, not lane by lane. 16 lanes only
-     * (TX_PACKET_OCTANT): there a lane-by-lane pick takes two vector selects per plane, and
-     * tools/ab.py measured 0.97 of the textured meshes' frame; at 8 lanes the test cost more
-     * than it saved (globe 1.03, bumped brick wall 1.02). */
+     * nearly every packet of camera or shadow rays), else -1: the beam test needs them, and
+     * at 16 lanes (TX_PACKET_OCTANT) box_entry_packet picks each slab's near and far planes
+     * once for the packet, not lane by lane: there a lane-by-lane pick takes two vector
+     * selects per plane, and tools/ab.py measured 0.97 of the textured meshes' frame; at 8
+     * lanes that pick cost more than it saved (globe 1.03, bumped brick wall 1.02). */
     int octant;
     /* Whether the shear fields above (uniform .. sz, rxx .. rzz) are set: packet_setup leaves
      * them to packet_shear, which the first triangle leaf the packet reaches calls (most
@@ -100,10 +100,7 @@ typedef struct {
     float4 bmin, bmax, ivmin, ivmax;
 } PacketRay;
 #define TX_PACKET_OCTANT (TX_PACKET == 16)
-/* The beam test (beam_box4) needs the packet's octant. */
-#ifndef TX_PACKET_BEAM
-#define TX_PACKET_BEAM TX_PACKET_OCTANT
-#endif
+
 
 /* Lane j of the packet: the ray org + t dir, t in (tmin, tmax). */
 inline void packet_set_lane(PacketRay* r, uint j, float3 org, float3 dir, float tmin, float tmax)
@@ -171,16 +168,16 @@ inline void packet_setup(PacketRay* r, pint active)
     r->ivx = safe_inverse_p(dx); r->ivy = safe_inverse_p(dy); r->ivz = safe_inverse_p(dz);
     r->par = (fabs(r->ivx) >= TX_PARALLEL_INV) | (fabs(r->ivy) >= TX_PARALLEL_INV) | (fabs(r->ivz) >= TX_PARALLEL_INV);
     r->nx = r->ivx < 0.0f; r->ny = r->ivy < 0.0f; r->nz = r->ivz < 0.0f;
-    r->octant = -1;
-    if (TX_PACKET_OCTANT) {
-        int sx = any(active & r->nx), sy = any(active & r->ny), sz = any(active & r->nz);
-        int mixed = (sx && any(active & ~r->nx)) || (sy && any(active & ~r->ny)) || (sz && any(active & ~r->nz));
-        r->octant = mixed ? -1 : sx | sy << 1 | sz << 2;
-    }
+    int sx = any(active & r->nx), sy = any(active & r->ny), sz = any(active & r->nz);
+    int mixed = (sx && any(active & ~r->nx)) || (sy && any(active & ~r->ny)) || (sz && any(active & ~r->nz));
+    r->octant = mixed ? -1 : sx | sy << 1 | sz << 2;
     r->uniform = 0;
     r->sheared = 0;
     r->active = active;
-    r->beam = TX_PACKET_BEAM && r->octant >= 0 && !any(active & r->par);
+    /* the beam, at both widths: tools/ab.py with TEXRAY_PACKET=8 on both sides measured the
+     * textured meshes 0.876, globe 0.994, brick wall 0.971, and the bench's rays (8-lane
+     * Tracer packets) 1.05-1.18 times the primary and 1.09-1.22 times the shadow rate */
+    r->beam = r->octant >= 0 && !any(active & r->par);
     if (r->beam) {
         pfloat inf = (pfloat)(INFINITY), ninf = (pfloat)(-INFINITY);
 #define TX_BMIN(v) packet_min(PSEL_F(active, v, inf))

@@ -1285,9 +1285,10 @@ __kernel void beam_boxes(__global const float* rays, __global const float* boxes
 """
 
 
-def test_the_beam_test_never_drops_a_box_a_lane_enters(rt, rng):
-    """beam_box4 (accel/packet.h: the interval-arithmetic test of a 16-lane packet against a
-    wide node's four boxes) answers 0 only for boxes no lane's box_entry_packet enters, on
+@pytest.mark.parametrize("width", WIDTHS)
+def test_the_beam_test_never_drops_a_box_a_lane_enters(rt, rng, width):
+    """beam_box4 (accel/packet.h: the interval-arithmetic test of a packet against a wide
+    node's four boxes) answers 0 only for boxes no lane's box_entry_packet enters, on
     packets as the renderer makes them (a pixel's samples' camera rays, shadow rays toward one
     light) and wider ones, at scales 1e-4 to 1e4 and 1e4 from the origin, with intervals
     (tmin > 0, short tmax), against boxes around the rays, boxes whose faces pass exactly
@@ -1299,7 +1300,7 @@ def test_the_beam_test_never_drops_a_box_a_lane_enters(rt, rng):
     import pyopencl as cl
     from kernel_harness import build_test_program
     from texray.device.features import compile_options
-    width, npk, nq = 16, 2048, 16
+    npk, nq = 2048, 16
     scale = 10.0 ** rng.uniform(-4, 4, (npk, 1, 1))
     centre = rng.normal(size=(npk, 1, 3)) * scale * np.where(rng.random((npk, 1, 1)) < 0.2, 1e4 / scale, 1.0)
     spread = scale * 10.0 ** rng.uniform(-4, -0.5, (npk, 1, 1))
