@@ -27,9 +27,9 @@
  * the scalar leaf_hit (geometry/dispatch.h); closest-hit packets leave instanced scenes (hits carry the instance) to the
  * scalar traversal. The host compiles packets in only where they measured faster
  * (texray.device.features.packet_width).
- * A packet whose lanes share their direction signs tests a node's four boxes first
- * against its beam (beam_box4: bounds of its lanes, one float4 test) and each box the beam
- * may enter lane by lane: the same lanes enter the same boxes. */
+ * A packet whose lanes share their direction's sign along some axis tests a node's four
+ * boxes first against its beam (beam_box4: bounds of its lanes, one float4 test) and each box
+ * the beam may enter lane by lane: the same lanes enter the same boxes. */
 #ifndef TEXRAY_PACKET_H
 #define TEXRAY_PACKET_H
 #include "accel/bvh.h"
@@ -92,11 +92,12 @@ typedef struct {
      * packet_setup's time); `active`, the lanes packet_setup was given, decides uniform. */
     int sheared;
     pint active;
-    /* The beam (beam_box4): where `beam` is 1 -- the active lanes share their direction signs
-     * (octant >= 0) and none is parallel to an axis -- the bounds over the active lanes of
-     * their origins and tmin (bmin: the smallest, .w tmin; bmax: the largest, .w tmax) and of
-     * the inverse directions (ivmin, ivmax). */
-    int beam;
+    /* The beam (beam_box4): where `beam` is 1 -- the active lanes share their direction's sign
+     * along at least one axis and none is parallel to an axis -- the axes whose signs are
+     * mixed (mixed, bits as octant's), the shared signs of the others (signs), and the bounds
+     * over the active lanes of their origins and tmin (bmin: the smallest, .w tmin; bmax: the
+     * largest, .w tmax) and of the inverse directions (ivmin, ivmax). */
+    int beam, signs, mixed;
     float4 bmin, bmax, ivmin, ivmax;
 } PacketRay;
 #define TX_PACKET_OCTANT (TX_PACKET == 16)
@@ -169,15 +170,17 @@ inline void packet_setup(PacketRay* r, pint active)
     r->par = (fabs(r->ivx) >= TX_PARALLEL_INV) | (fabs(r->ivy) >= TX_PARALLEL_INV) | (fabs(r->ivz) >= TX_PARALLEL_INV);
     r->nx = r->ivx < 0.0f; r->ny = r->ivy < 0.0f; r->nz = r->ivz < 0.0f;
     int sx = any(active & r->nx), sy = any(active & r->ny), sz = any(active & r->nz);
-    int mixed = (sx && any(active & ~r->nx)) || (sy && any(active & ~r->ny)) || (sz && any(active & ~r->nz));
-    r->octant = mixed ? -1 : sx | sy << 1 | sz << 2;
+    int mx = sx && any(active & ~r->nx), my = sy && any(active & ~r->ny), mz = sz && any(active & ~r->nz);
+    r->signs = sx | sy << 1 | sz << 2;
+    r->mixed = mx | my << 1 | mz << 2;
+    r->octant = r->mixed ? -1 : r->signs;
     r->uniform = 0;
     r->sheared = 0;
     r->active = active;
     /* the beam, at both widths: tools/ab.py with TEXRAY_PACKET=8 on both sides measured the
      * textured meshes 0.876, globe 0.994, brick wall 0.971, and the bench's rays (8-lane
      * Tracer packets) 1.05-1.18 times the primary and 1.09-1.22 times the shadow rate */
-    r->beam = r->octant >= 0 && !any(active & r->par);
+    r->beam = r->mixed != 7 && !any(active & r->par);
     if (r->beam) {
         pfloat inf = (pfloat)(INFINITY), ninf = (pfloat)(-INFINITY);
 #define TX_BMIN(v) packet_min(PSEL_F(active, v, inf))
@@ -269,22 +272,24 @@ inline void packet_shear(PacketRay* r)
  * lanes' origins, inverse directions and intervals (PacketRay.bmin .. ivmax) bound every lane's
  * near distance from below and far distance from above: a box the beam misses, every lane
  * misses. (The products' bounds take both ends of the inverse directions' interval: their
- * signs are the packet's octant, the differences' signs are not known.) One float4 test for
+ * signs are the packet's, the differences' signs are not known.) One float4 test for
  * the four boxes, in place of four lane-by-lane tests where no lane enters. The lanes that
  * do enter are still found by box_entry_packet, so every answer is the same. */
 inline int4 beam_box4(const PacketRay* r, float4 lox, float4 hix, float4 loy, float4 hiy, float4 loz, float4 hiz,
                       float tmax)
 {
-    int o = r->octant;
+    int o = r->signs, mixed = r->mixed;
     float4 bmin = r->bmin, bmax = r->bmax, ivmin = r->ivmin, ivmax = r->ivmax;
     /* per axis: the near plane's difference bound (the largest origin for a positive
      * direction, the smallest for a negative one: the smallest product either way) and the
-     * far plane's (the other end) */
+     * far plane's (the other end); an axis whose lanes' signs are mixed bounds nothing
+     * (-inf, +inf: its lanes use either plane), the others still do */
 #define TX_BEAM_AXIS(bit, lo, hi, c, tn, tf) do { \
         float4 nd_ = (o & (bit)) ? (hi) - (float4)(bmin.c) : (lo) - (float4)(bmax.c); \
         float4 fd_ = (o & (bit)) ? (lo) - (float4)(bmax.c) : (hi) - (float4)(bmin.c); \
         tn = TX_MIN(nd_ * ivmin.c, nd_ * ivmax.c); \
         tf = TX_MAX(fd_ * ivmin.c, fd_ * ivmax.c); \
+        if (mixed & (bit)) { tn = (float4)(-INFINITY); tf = (float4)(INFINITY); } \
     } while (0)
     float4 tnx, tfx, tny, tfy, tnz, tfz;
     TX_BEAM_AXIS(1, lox, hix, x, tnx, tfx);

@@ -1290,13 +1290,14 @@ def test_the_beam_test_never_drops_a_box_a_lane_enters(rt, rng, width):
     """beam_box4 (accel/packet.h: the interval-arithmetic test of a packet against a wide
     node's four boxes) answers 0 only for boxes no lane's box_entry_packet enters, on
     packets as the renderer makes them (a pixel's samples' camera rays, shadow rays toward one
-    light) and wider ones, at scales 1e-4 to 1e4 and 1e4 from the origin, with intervals
+    light), packets whose lanes' signs differ along one axis (shadow rays toward two lights)
+    and wider ones, at scales 1e-4 to 1e4 and 1e4 from the origin, with intervals
     (tmin > 0, short tmax), against boxes around the rays, boxes whose faces pass exactly
     through points of one lane's ray or with a corner on one (that lane at its decision's edge:
     without the far distances' 1 + 2 gamma(3) the beam drops boxes), flat boxes, boxes
     behind the origins and empty ones; and it does cull (most boxes no lane enters), so the
-    traversals skip their lane-by-lane tests. Packets whose lanes' direction signs differ
-    have no beam."""
+    traversals skip their lane-by-lane tests. Packets whose lanes' signs differ along every
+    axis have no beam."""
     import pyopencl as cl
     from kernel_harness import build_test_program
     from texray.device.features import compile_options
@@ -1310,6 +1311,8 @@ def test_the_beam_test_never_drops_a_box_a_lane_enters(rt, rng, width):
     d = aim - org
     wide = rng.random(npk) < 0.25                                  # incoherent packets: mixed signs
     d[wide] = rng.normal(size=(wide.sum(), width, 3)) * scale[wide]
+    split = ~wide & (rng.random(npk) < 0.25)                       # one axis' signs mixed (two lights)
+    d[split, ::2, 0] = -d[split, ::2, 0]
     tmin = np.where(rng.random((npk, width)) < 0.3, rng.uniform(0, 0.5, (npk, width)), 0.0)
     tmax = np.where(rng.random((npk, width)) < 0.5, rng.uniform(0.5, 1.0, (npk, width)), 1.0)
     tmax[rng.random(npk) < 0.2] = np.inf
@@ -1355,6 +1358,7 @@ def test_the_beam_test_never_drops_a_box_a_lane_enters(rt, rng, width):
     res = res.reshape(npk, nq * 4)
     beam, enters, has = (res & 1) != 0, (res & 2) != 0, (res & 4) != 0
     assert has[~wide].mean() > 0.9 and not has[wide].all(), "coherent packets should have a beam"
+    assert has[split].mean() > 0.9, "packets with one axis' signs mixed should have a beam"
     dropped = has & ~beam & enters
     assert not dropped.any(), f"{dropped.sum()} boxes a lane enters failed the beam test, e.g. packet " \
                               f"{np.argwhere(dropped)[:3]}"
