@@ -79,13 +79,14 @@ typedef struct {
      * origins' coordinates along them and the shear factors sx, sy, sz per lane. */
     int uniform, kx, ky, kz;
     pfloat okx, oky, okz, sx, sy, sz;
-    /* The traced lanes' direction signs where they all share them (bit 0: x < 0, 1: y, 2: z;
-     * nearly every packet of camera or shadow rays), else -1: the beam test needs them, and
-     * at 16 lanes (TX_PACKET_OCTANT) box_entry_packet picks each slab's near and far planes
-     * once for the packet, not lane by lane: there a lane-by-lane pick takes two vector
-     * selects per plane, and tools/ab.py measured 0.97 of the textured meshes' frame; at 8
-     * lanes that pick cost more than it saved (globe 1.03, bumped brick wall 1.02). */
-    int octant;
+    /* The traced lanes' direction signs (bit 0: x < 0, 1: y, 2: z) along the axes where they
+     * all share them, and the axes where they do not (mixed; none in nearly every packet of
+     * camera or shadow rays): the beam test needs them, and at 16 lanes (TX_PACKET_OCTANT)
+     * box_entry_packet picks each slab's near and far planes once for a packet without mixed
+     * axes, not lane by lane: there a lane-by-lane pick takes two vector selects per plane,
+     * and tools/ab.py measured 0.97 of the textured meshes' frame; at 8 lanes that pick cost
+     * more than it saved (globe 1.03, bumped brick wall 1.02). */
+    int signs, mixed;
     /* Whether the shear fields above (uniform .. sz, rxx .. rzz) are set: packet_setup leaves
      * them to packet_shear, which the first triangle leaf the packet reaches calls (most
      * shadow packets and the sky's camera packets reach none; the shear was a third of
@@ -93,11 +94,10 @@ typedef struct {
     int sheared;
     pint active;
     /* The beam (beam_box4): where `beam` is 1 -- the active lanes share their direction's sign
-     * along at least one axis and none is parallel to an axis -- the axes whose signs are
-     * mixed (mixed, bits as octant's), the shared signs of the others (signs), and the bounds
-     * over the active lanes of their origins and tmin (bmin: the smallest, .w tmin; bmax: the
-     * largest, .w tmax) and of the inverse directions (ivmin, ivmax). */
-    int beam, signs, mixed;
+     * along at least one axis and none is parallel to an axis -- the bounds over the active
+     * lanes of their origins and tmin (bmin: the smallest, .w tmin; bmax: the largest, .w
+     * tmax) and of the inverse directions (ivmin, ivmax). */
+    int beam;
     float4 bmin, bmax, ivmin, ivmax;
 } PacketRay;
 #define TX_PACKET_OCTANT (TX_PACKET == 16)
@@ -127,31 +127,18 @@ inline pfloat safe_inverse_p(pfloat x)
     return PSEL_F(fabs(x) < 7.888609e-31f, big, 1.0f / x);
 }
 
-/* The smallest lane of v (the packet's nearest entry into a box: the traversal's order). */
-inline float packet_min(pfloat v)
-{
+/* packet_min: the smallest lane of v (the packet's nearest entry into a box: the traversal's
+ * order); packet_max: the largest (TX_MIN, TX_MAX halving the vector). */
 #if TX_PACKET == 16
-    float8 v8 = TX_MIN(v.lo, v.hi);
-    float4 v4 = TX_MIN(v8.lo, v8.hi);
+#define TX_PACKET_REDUCE(name, op) inline float name(pfloat v) \
+    { float8 v8 = op(v.lo, v.hi); float4 v4 = op(v8.lo, v8.hi); float2 v2 = op(v4.lo, v4.hi); return op(v2.x, v2.y); }
 #else
-    float4 v4 = TX_MIN(v.lo, v.hi);
+#define TX_PACKET_REDUCE(name, op) inline float name(pfloat v) \
+    { float4 v4 = op(v.lo, v.hi); float2 v2 = op(v4.lo, v4.hi); return op(v2.x, v2.y); }
 #endif
-    float2 v2 = TX_MIN(v4.lo, v4.hi);
-    return TX_MIN(v2.x, v2.y);
-}
-
-/* The largest lane of v. */
-inline float packet_max(pfloat v)
-{
-#if TX_PACKET == 16
-    float8 v8 = TX_MAX(v.lo, v.hi);
-    float4 v4 = TX_MAX(v8.lo, v8.hi);
-#else
-    float4 v4 = TX_MAX(v.lo, v.hi);
-#endif
-    float2 v2 = TX_MAX(v4.lo, v4.hi);
-    return TX_MAX(v2.x, v2.y);
-}
+TX_PACKET_REDUCE(packet_min, TX_MIN)
+TX_PACKET_REDUCE(packet_max, TX_MAX)
+#undef TX_PACKET_REDUCE
 
 /* The component of v along axis k (0, 1, 2) of a packet's uniform shear. */
 #define TX_PAXIS(k, x, y, z) ((k) == 0 ? (x) : ((k) == 1 ? (y) : (z)))
@@ -173,7 +160,6 @@ inline void packet_setup(PacketRay* r, pint active)
     int mx = sx && any(active & ~r->nx), my = sy && any(active & ~r->ny), mz = sz && any(active & ~r->nz);
     r->signs = sx | sy << 1 | sz << 2;
     r->mixed = mx | my << 1 | mz << 2;
-    r->octant = r->mixed ? -1 : r->signs;
     r->uniform = 0;
     r->sheared = 0;
     r->active = active;
@@ -302,6 +288,13 @@ inline int4 beam_box4(const PacketRay* r, float4 lox, float4 hix, float4 loy, fl
     return (tn <= tf) & (tf > 0.0f);
 }
 
+/* Whether a traversal of the lanes `active` may use the packet's beam: its bounds hold
+ * packet_setup's lanes only. */
+inline int packet_beam(const PacketRay* r, pint active)
+{
+    return r->beam && !any(active & ~r->active);
+}
+
 /* box4_entry (accel/bvh.h) for one box and every lane, each with its interval
  * (r->tmin, tmax): the entry distance, INFINITY for a miss; lanes in m that are parallel to
  * an axis and missed are re-tested exactly. */
@@ -309,11 +302,11 @@ inline pfloat box_entry_packet(const PacketRay* r, float lox, float hix, float l
                                pfloat tmax, pint m)
 {
     /* each slab's near and far plane per lane: hi for a negative direction, else lo (for the
-     * whole packet at once where its traced lanes share their signs: r->octant; the other
+     * whole packet at once where its traced lanes share their signs: r->signs; the other
      * lanes' answers are masked off by every caller) */
     pfloat nx_, fx_, ny_, fy_, nz_, fz_;
-    int o = r->octant;
-    if (TX_PACKET_OCTANT && o >= 0) {
+    int o = r->signs;
+    if (TX_PACKET_OCTANT && !r->mixed) {
         nx_ = (pfloat)(o & 1 ? hix : lox); fx_ = (pfloat)(o & 1 ? lox : hix);
         ny_ = (pfloat)(o & 2 ? hiy : loy); fy_ = (pfloat)(o & 2 ? loy : hiy);
         nz_ = (pfloat)(o & 4 ? hiz : loz); fz_ = (pfloat)(o & 4 ? loz : hiz);
@@ -513,7 +506,7 @@ inline pint bvh_any_packet(TX_GEOM_PARAMS, PacketRay* r, pint active)
     int sp = 0;
     uint node = 0u, budget = nnodes;
     pint m = active;
-    int beam = r->beam && !any(active & ~r->active);     /* its bounds hold setup's lanes only */
+    int beam = packet_beam(r, active);
     for (;;) {
         if (node >= nnodes || budget-- == 0u) return occ;
         __global const float4* nd = nodes + 8u * node;
@@ -622,7 +615,7 @@ inline PacketHit bvh_closest_packet(TX_GEOM_PARAMS, PacketRay* r, pint active)
     int sp = 0;
     uint node = 0u, ck = 0u, budget = nnodes;
     pint m = active;
-    int beam = r->beam && !any(active & ~r->active);     /* its bounds hold setup's lanes only */
+    int beam = packet_beam(r, active);
     for (;;) {
         if (ck != 0u) {
             leaf_closest_packet(TX_GEOM_ARGS, r, node, ck, m, &h);

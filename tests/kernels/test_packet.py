@@ -150,25 +150,13 @@ def test_packets_equal_scalar_on_rays_in_box_faces(device, monkeypatch):
 
 
 
-def _segments_meet_triangles(org, target, tris, margin):
-    """Whether the float64 segments org -> target (t in (margin, 1)) meet any of the triangles
-    tris (k, 3, 3) with barycentrics above ``margin`` (below 0 for a margin < 0: the triangles
-    grown)."""
-    d = target - org
-    hit = np.zeros(len(org), bool)
-    for a, b, c in tris:
-        e1, e2 = b - a, c - a
-        p = np.cross(d, e2)
-        det = p @ e1
-        with np.errstate(divide="ignore", invalid="ignore"):
-            inv = 1.0 / det
-            s = org - a
-            u = np.einsum("ij,ij->i", s, p) * inv
-            q = np.cross(s, e1)
-            v = np.einsum("ij,ij->i", q, d) * inv
-            t = (q @ e2) * inv
-        hit |= (np.abs(det) > 0) & (u > margin) & (v > margin) & (1 - u - v > margin) & (t > margin) & (t < 1)
-    return hit
+def _segments_meet_triangles(org, target, tris, grow):
+    """Whether the float64 segments org -> target (t in (0, 1)) meet any of the triangles tris
+    (k, 3, 3) scaled by 1 + grow about their centroids (grow < 0: shrunk), reference.intersect."""
+    from reference import intersect
+    c = tris.mean(axis=1, keepdims=True)
+    p = c + (tris - c) * (1.0 + grow)
+    return intersect(org, target - org, p[:, 0], p[:, 1], p[:, 2], tmax=np.ones(len(org)))[3] >= 0
 
 
 def test_rays_leave_a_plane_from_the_plane(device, rng, monkeypatch):
@@ -191,12 +179,12 @@ def test_rays_leave_a_plane_from_the_plane(device, rng, monkeypatch):
     # ground points around the tetrahedron, half of them in its box's footprint (beside its base)
     xz = np.concatenate([rng.uniform(-0.5, 0.5, (3000, 2)), rng.uniform(-2, 2, (3000, 2))]).astype(np.float32)
     org = np.stack([xz[:, 0], np.zeros(len(xz), np.float32), xz[:, 1]], axis=1).astype(np.float64)
-    inside_base = _segments_meet_triangles(org + [0, 1, 0], org - [0, 1, 0], base[None], -1e-4)
+    inside_base = _segments_meet_triangles(org + [0, 1, 0], org - [0, 1, 0], base[None], 1e-4)
     org = org[~inside_base]
     target = rng.uniform([-0.6, 0.05, -0.6], [0.6, 1.2, 0.6], (len(org), 3)).astype(np.float32).astype(np.float64)
     up = _assert_same(tr, org, target - org)
-    inner = _segments_meet_triangles(org, target, tet, 1e-5)
-    outer = _segments_meet_triangles(org, target, tet, -1e-5)
+    inner = _segments_meet_triangles(org, target, tet, -1e-5)
+    outer = _segments_meet_triangles(org, target, tet, 1e-5)
     sure = inner == outer
     in_box = (np.abs(org[:, 0]) < 0.5) & (np.abs(org[:, 2]) < 0.5)
     assert sure.mean() > 0.99 and 0.2 < inner.mean() < 0.8 and inner[in_box].mean() > 0.2
