@@ -6,7 +6,9 @@
  * sample in one work-item -- the default pipeline; the five stage kernels (raygen,
  * intersect, surface, shadow, shade: stages/) do the same steps one per launch with
  * per-ray records between them in global memory, for timing each step alone (texray
- * bench) and for the AOV pass; `occluded` times any-hit traversal alone. Both
+ * bench) and for the AOV pass; `occluded` times any-hit traversal alone;
+ * adaptive_mark and adaptive_list (stages/adaptive.cl, with TX_ADAPTIVE) decide which
+ * pixels take adaptive sampling's next round. Both
  * pipelines call the same functions and give the same image, bit for bit.
  *
  * Folders by role, each header including what it needs (include guards):
@@ -35,6 +37,7 @@
 #include "core/common.h"
 #include "core/sampler.h"
 #include "core/accurate.h"
+#include "core/adaptive.h"
 #include "core/camera.h"
 #include "geometry/dispatch.h"
 #include "accel/bvh.h"
@@ -52,6 +55,7 @@
 #include "stages/shadow.cl"
 #include "stages/shade.cl"
 #include "stages/fused.cl"
+#include "stages/adaptive.cl"
 #if TX_AVX512
 #pragma clang attribute pop
 #pragma clang attribute pop

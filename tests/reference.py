@@ -295,3 +295,42 @@ def scene_hits(scene, width, height):
     org, d = camera_rays(scene, width, height)
     t, b1, b2, tri = intersect(org, d, p0, p1, p2)
     return cs, org, d, t, b1, b2, tri
+
+
+# Adaptive sampling's stopping rule (texray.renderer.adaptive), float64: what the device's
+# float32 decision (kernels/core/adaptive.h, stages/adaptive.cl) is held to.
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])     # Rec. 709
+
+
+def adaptive_standard_error(sum_rgb, sum_y2, n):
+    """(mean luminance, standard error of that mean) per pixel from the accumulated sums of
+    n samples (n >= 2)."""
+    rgb = np.asarray(sum_rgb, np.float64)
+    sum_y = rgb @ LUMINANCE
+    n = np.asarray(n, np.float64)
+    mean = sum_y / n
+    var = np.maximum(np.asarray(sum_y2, np.float64) - sum_y * mean, 0.0) / np.maximum(n - 1, 1)
+    return mean, np.sqrt(var / n)
+
+
+def adaptive_unconverged(mean, se, threshold):
+    """The pixels whose standard error is above the threshold (relative, with the absolute
+    floor below a mean of FLOOR)."""
+    from texray.renderer.adaptive import FLOOR
+    return se > threshold * np.maximum(mean, FLOOR)
+
+
+def adaptive_dilate(open_, rows, width, y0=0):
+    """The (rows * width,) pixels of a tile of ``rows`` rows from image row ``y0`` that keep
+    sampling, from its mask of unconverged pixels: those with an unconverged pixel in their
+    3x3 neighbourhood within their block of BLOCK_ROWS image rows and within the tile."""
+    from texray.renderer.adaptive import BLOCK_ROWS
+    open_ = np.asarray(open_, bool).reshape(rows, width)
+    y = y0 + np.arange(rows)
+    first, last = (y % BLOCK_ROWS == 0)[:, None], (y % BLOCK_ROWS == BLOCK_ROWS - 1)[:, None]
+    p = np.pad(open_, ((0, 0), (1, 1)))
+    across = p[:, :-2] | p[:, 1:-1] | p[:, 2:]              # the row's own 1x3 neighbourhood
+    grown = across.copy()
+    grown[1:] |= across[:-1] & ~first[1:]                    # the row above, within the block
+    grown[:-1] |= across[1:] & ~last[:-1]                    # the row below, within the block
+    return grown.ravel()

@@ -2,7 +2,7 @@
 
     python tools/ab.py BASE NEW [SCENE.toml ...] [--size 512x384] [--spp 8] [--rounds 3]
                        [--frames 5] [--device pocl] [--light-sampling all|one] [--no-shadows]
-                       [--base-env K=V ...] [--new-env K=V ...]
+                       [--adaptive T] [--base-env K=V ...] [--new-env K=V ...]
 
 BASE and NEW are source trees (a `git worktree add /tmp/base <commit>` of the commit
 before, and this one). Each round renders each scene once with BASE's host code and
@@ -12,7 +12,8 @@ it prints every round's times and the median of the rounds' ratios NEW / BASE (<
 NEW is faster). The default scenes are the bench's globe, textured meshes, bumped
 brick wall and grazing quad. ``--light-sampling one`` renders both sides with one light
 per sample (``render(light_sampling="one")``, Mitsuba's estimator); ``--no-shadows``
-without shadow rays (``render(shadows=False)``). ``--base-env``/``--new-env`` set environment variables in
+without shadow rays (``render(shadows=False)``); ``--adaptive T`` with adaptive sampling
+(``render(adaptive=T)``, ``--spp`` the most a pixel takes). ``--base-env``/``--new-env`` set environment variables in
 one side's processes, so that one tree A/Bs a setting:
 
     python tools/ab.py . . scenes/bench/textured_meshes.toml --base-env TEXRAY_PACKET=8 --new-env TEXRAY_PACKET=16
@@ -36,7 +37,7 @@ DEFAULT_SCENES = [ROOT / "scenes" / "bench" / f"{n}.toml"
 _CHILD = r"""
 import json, statistics, sys
 from pathlib import Path
-tree, scene, w, h, spp, frames, device, ls, shadows = sys.argv[1:10]
+tree, scene, w, h, spp, frames, device, ls, shadows, adaptive = sys.argv[1:11]
 import texray.device.opencl as o
 o.KERNEL_DIR = Path(tree) / "kernels"
 o._kernel_sources_digest.cache_clear()
@@ -45,6 +46,8 @@ s = tx.Scene.load(scene)
 kw = {"light_sampling": ls} if ls != "all" else {}
 if shadows == "0":
     kw["shadows"] = False
+if adaptive:
+    kw["adaptive"] = float(adaptive)
 tx.render(s, int(w), int(h), int(spp), device=device, **kw)
 ts = [tx.render(s, int(w), int(h), int(spp), device=device, **kw).stats["render_s"] for _ in range(int(frames))]
 print(json.dumps(statistics.median(ts)))
@@ -52,11 +55,12 @@ print(json.dumps(statistics.median(ts)))
 
 
 def frame_time(tree: Path, scene: Path, size, spp, frames, device, extra_env=(), light_sampling="all",
-               shadows=True) -> float:
+               shadows=True, adaptive=None) -> float:
     tree = tree.resolve()
     env = dict(os.environ, PYTHONPATH=str(tree / "pyhost"), **dict(extra_env))
     out = subprocess.run([sys.executable, "-c", _CHILD, str(tree), str(scene), str(size[0]), str(size[1]),
-                          str(spp), str(frames), device, light_sampling, str(int(shadows))], env=env, capture_output=True, text=True, cwd="/")
+                          str(spp), str(frames), device, light_sampling, str(int(shadows)),
+                          "" if adaptive is None else repr(float(adaptive))], env=env, capture_output=True, text=True, cwd="/")
     if out.returncode != 0:
         raise SystemExit(f"ab: {tree} on {scene} failed:\n{out.stderr[-2000:]}")
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -76,6 +80,8 @@ def main(argv=None):
     ap.add_argument("--light-sampling", choices=("all", "one"), default="all",
                     help="render(light_sampling=...) on both sides (default all)")
     ap.add_argument("--no-shadows", action="store_true", help="render(shadows=False) on both sides")
+    ap.add_argument("--adaptive", type=float, default=None, metavar="T",
+                    help="render(adaptive=T) on both sides (--spp: the most a pixel takes)")
     ap.add_argument("--base-env", action="append", default=[], metavar="K=V",
                     help="an environment variable of BASE's processes (repeatable)")
     ap.add_argument("--new-env", action="append", default=[], metavar="K=V",
@@ -98,9 +104,9 @@ def main(argv=None):
         ratios = []
         for r in range(a.rounds):
             tb = frame_time(a.base, scene, size, a.spp, a.frames, a.device, envs[0], a.light_sampling,
-                            not a.no_shadows)
+                            not a.no_shadows, a.adaptive)
             tn = frame_time(a.new, scene, size, a.spp, a.frames, a.device, envs[1], a.light_sampling,
-                            not a.no_shadows)
+                            not a.no_shadows, a.adaptive)
             ratios.append(tn / tb)
             print(f"{scene.stem:18s} round {r + 1}: base {tb * 1e3:8.1f} ms  new {tn * 1e3:8.1f} ms  "
                   f"new/base {tn / tb:.3f}", flush=True)

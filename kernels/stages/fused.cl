@@ -8,8 +8,8 @@
 
 /* With TX_ADAPTIVE (adaptive sampling, texray.renderer.adaptive) the work-items take the
  * tile's pixels listed in `active` (n of them; work-item gid the entries gid * pixels ..)
- * and each also adds the squares of its samples' luminance to sum_y2, the host's variance
- * estimate; otherwise work-item gid takes pixels gid * pixels .. of the tile and both are
+ * and each also adds the squares of its samples' luminance to sum_y2, for the variance
+ * estimate of stages/adaptive.cl; otherwise work-item gid takes pixels gid * pixels .. of the tile and both are
  * NULL.
  *
  * With TX_ONE_LIGHT (render(light_sampling="one")) each sample traces one shadow ray, toward
@@ -403,7 +403,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
             float3 cj = TX_SAMPLE_C(j);
             sum[TX_LP(j)] += cj;
 #if TX_ADAPTIVE
-            float y = 0.2126f * cj.x + 0.7152f * cj.y + 0.0722f * cj.z;     /* Rec. 709 luminance */
+            float y = luminance(cj);                                       /* core/adaptive.h */
             y2[TX_LP(j)] += y * y;
 #endif
         }

@@ -12,6 +12,9 @@ Y = 0.2126 R + 0.7152 G + 0.0722 B,
 
 and it has converged when ``se <= threshold * max(mean Y, FLOOR)``: a relative
 error, with an absolute floor in the dark, where relative errors are not seen.
+The device decides, in float32 (kernels/core/adaptive.h, stages/adaptive.cl; the
+tests hold it to tests/reference.py's float64 rule), and the host reads back only
+how many pixels go on (texray.renderer.frame adaptive_tile).
 The estimate of a pixel can be wrong when its first samples all missed a small
 feature; a pixel keeps sampling while any of its 3x3 neighbours does (a dilation
 of the unconverged set), so that an edge or highlight seen by one pixel keeps its
@@ -25,12 +28,9 @@ than a block, under a tiny memory limit, dilates within the tile.)
 """
 from __future__ import annotations
 
-import numpy as np
-
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722], np.float32)    # Rec. 709, what the device accumulates
-FLOOR = 0.1          # mean luminance below which the error is measured absolutely (threshold * FLOOR)
+FLOOR = 0.1          # mean luminance below which the error is measured absolutely (threshold * FLOOR; a kernel argument)
 MIN_SAMPLES = 4      # the first round: enough samples for a variance estimate (in cmj_cell's order, README)
-BLOCK_ROWS = 16      # image rows whose pixels see each other's state (the dilation's unit)
+BLOCK_ROWS = 16      # image rows whose pixels see each other's state (the dilation's unit; a kernel argument)
 
 
 def round_size(spp: int) -> int:
@@ -42,47 +42,10 @@ def round_sizes(spp: int) -> list[int]:
     """The rounds' sample counts, up to spp in all: the first round_size(spp), then each as
     many as all before it (at least the first's), so that a pixel takes at most about twice
     the samples it needed and a render about log2(spp / round_size) + 2 rounds, each a
-    read-back and a launch (rounds of spp / 8 throughout took 8 at most: on the globe at <= 32
+    device decision, a read-back of a count and a launch (rounds of spp / 8 throughout took 8 at most: on the globe at <= 32
     spp the frame took 1.15 times as long for the same samples and error)."""
     first, done, out = round_size(spp), 0, []
     while done < spp:
         out.append(min(max(first, done), spp - done))
         done += out[-1]
     return out
-
-
-def standard_error(sum_rgb, sum_y2, n):
-    """(mean luminance, standard error of that mean) per pixel, float64, from the
-    accumulated sums of n samples (n >= 2)."""
-    rgb, w = np.asarray(sum_rgb, np.float64), LUMINANCE.astype(np.float64)
-    sum_y = rgb[:, 0] * w[0] + rgb[:, 1] * w[1] + rgb[:, 2] * w[2]   # not @: no BLAS threads waking
-    n = np.asarray(n, np.float64)
-    mean = sum_y / n
-    var = np.maximum(np.asarray(sum_y2, np.float64) - sum_y * mean, 0.0) / np.maximum(n - 1, 1)
-    return mean, np.sqrt(var / n)
-
-
-def unconverged(mean, se, threshold):
-    """Boolean mask of the pixels whose standard error is above the threshold (relative,
-    with the absolute floor below a mean of FLOOR)."""
-    return se > threshold * np.maximum(mean, FLOOR)
-
-
-def still_active(mean, se, threshold, rows, width, y0=0):
-    """Boolean (rows * width,) mask of the pixels of the tile of ``rows`` rows from image
-    row ``y0`` to keep sampling: not converged, or next to one that is not (3x3 dilation
-    within each block of BLOCK_ROWS image rows)."""
-    return dilate(unconverged(mean, se, threshold), rows, width, y0)
-
-
-def dilate(open_, rows, width, y0=0):
-    """still_active from the (rows * width,) mask of unconverged pixels."""
-    open_ = np.asarray(open_, bool).reshape(rows, width)
-    y = y0 + np.arange(rows)
-    first, last = (y % BLOCK_ROWS == 0)[:, None], (y % BLOCK_ROWS == BLOCK_ROWS - 1)[:, None]
-    p = np.pad(open_, ((0, 0), (1, 1)))
-    across = p[:, :-2] | p[:, 1:-1] | p[:, 2:]              # the row's own 1x3 neighbourhood
-    grown = across.copy()
-    grown[1:] |= across[:-1] & ~first[1:]                    # the row above, within the block
-    grown[:-1] |= across[1:] & ~last[:-1]                    # the row below, within the block
-    return grown.ravel()
