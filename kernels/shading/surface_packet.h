@@ -86,9 +86,7 @@ static inline __attribute__((always_inline)) void tex_packet(__global const Text
                                                              const int* ml, TexPacket* t)
 {
     uint k0 = packet_first_lane(ml);
-    int one = 1;
-    for (uint j = 0; j < (uint)TX_PACKET; ++j) one &= !ml[j] || tex[j] == tex[k0];
-    if (one) {
+    if (packet_one_index(ml, (const uint*)tex, k0)) {
         __global const TextureInfo* ti = textures + tex[k0];
         t->off = (pint)((int)ti->offset); t->w = (pint)((int)ti->width); t->h = (pint)((int)ti->height);
         t->mode = (pint)((int)ti->wrap);
