@@ -93,18 +93,18 @@ inline void shadow_origins_packet(const Surface* s, uint m, ShadowLanes* out)
 }
 
 /* light_visible for the m <= TX_PACKET surface points s[0..m) with their shadow origins
- * (shadow_origins_packet), each toward its own light (lane j of *lights), into vis[j]: the
+ * (shadow_origins_packet), each toward its own light (lane j of *lights), as a lane mask: the
  * same answers, from one packet traversal (accel/packet.h). Points that are not valid get 0.
  * Every sample's rays toward one light (every lane's the same), or with TX_ONE_LIGHT each
  * sample's ray toward the light it picked: one packet for the chunk, not one per light with
  * the other lights' lanes idle. */
-inline void light_visible_packet(const ShadowLanes* sl, uint m, const pfloat3* lights, TX_GEOM_PARAMS, uchar* vis)
+inline pint light_visible_lanes(const ShadowLanes* sl, uint m, const pfloat3* lights, TX_GEOM_PARAMS)
 {
     /* shadow_ray for every lane as one vector computation, the lights given as vectors
      * (pf3_splat of one light, or pf3_gather of each lane's), not written lane by lane into the
      * packet and read back as vectors, which stalled on the store-to-load forwarding (a fifth
      * of this function's time, perf on the globe) */
-    if (m == 0u) return;
+    if (m == 0u) return (pint)(0);
     pfloat3 o = sl->o, n = sl->n, l = *lights;
     pint live = sl->valid & (as_pint(TX_PKT_LANE_IDS) < (pint)((int)m));
     pfloat3 d = pf3_sub(l, o);
@@ -129,8 +129,15 @@ inline void light_visible_packet(const ShadowLanes* sl, uint m, const pfloat3* l
         packet_setup(&r, live);
         live &= ~bvh_any_packet(TX_GEOM_ARGS, &r, live);              /* visible: traced and not occluded */
     }
+    return live;
+}
+
+/* The same into vis[0..m) (the records' path of stages/fused.cl); the packet surfaces' path
+ * takes light_visible_lanes's mask as it is (lanes from m on: 0). */
+inline void light_visible_packet(const ShadowLanes* sl, uint m, const pfloat3* lights, TX_GEOM_PARAMS, uchar* vis)
+{
     int occ[TX_PACKET];
-    PSTORE(live, occ);
+    PSTORE(light_visible_lanes(sl, m, lights, TX_GEOM_ARGS), occ);
     for (uint j = 0; j < m; ++j) vis[j] = occ[j] != 0;
 }
 #endif

@@ -272,10 +272,9 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
         ShadowLanes sl;
         if (lit)
             shadow_origins_lanes(sv.p, sv.lift, sv.ng, sv.ns, sv.offset, sv.valid, &sl);
-        /* cv += light_term where the light at lp_ (intensity li_, li_step_) is visible (vis) */
-#define TX_VIS_J(j) (vis[TX_MIN((uint)(j), m - 1u)] ? -1 : 0)
-#define TX_ADD_LIGHT(lp_, li_) do { \
-            pint vm_ = (pint)PGATHER(TX_VIS_J); \
+        /* cv += light_term where the light at lp_ (intensity li_) is visible (the lane mask vm_
+         * of light_visible_lanes: lanes from m on are 0, and no sum below reads them) */
+#define TX_ADD_LIGHT(vm_, lp_, li_) do { \
             if (any(vm_)) \
                 cv = pf3_sel(vm_, pf3_add(cv, light_term_lanes(sv.p, sv.ns, sv.kd, sv.ks, sv.shin, sv.wo, lp_, li_, \
                                                                vm_)), cv); \
@@ -290,18 +289,17 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
                 lij[j] = light_intensity(vload3(0, lights[pick].intensity), nlights);
             }
             pfloat3 lpv = pf3_gather(lposj, 1u, m), liv = pf3_gather(lij, 1u, m);
-            light_visible_packet(&sl, m, &lpv, TX_GEOM_ARGS, vis);
-            TX_ADD_LIGHT(lpv, liv);
+            pint vm = light_visible_lanes(&sl, m, &lpv, TX_GEOM_ARGS);
+            TX_ADD_LIGHT(vm, lpv, liv);
         }
 #else
         if (lit) FOR_EACH_LIGHT(i, nlights) {
             pfloat3 lpv = pf3_splat(vload3(0, lights[i].position));
-            light_visible_packet(&sl, m, &lpv, TX_GEOM_ARGS, vis);
-            TX_ADD_LIGHT(lpv, pf3_splat(light_intensity(vload3(0, lights[i].intensity), nlights)));
+            pint vm = light_visible_lanes(&sl, m, &lpv, TX_GEOM_ARGS);
+            TX_ADD_LIGHT(vm, lpv, pf3_splat(light_intensity(vload3(0, lights[i].intensity), nlights)));
         }
 #endif
 #undef TX_ADD_LIGHT
-#undef TX_VIS_J
         /* the colours clamped as vectors (clamp_radiance lane by lane), read by the sums below */
         float cl[3][TX_CHUNK];
         PSTORE(pf_clamp_radiance(cv.x), cl[0]); PSTORE(pf_clamp_radiance(cv.y), cl[1]);
