@@ -155,7 +155,14 @@ __attribute__((overloadable)) inline int tx_any(int8 v) { return __builtin_ia32_
 __attribute__((overloadable)) inline int tx_any(int4 v) { return (v.x | v.y | v.z | v.w) < 0; }
 __attribute__((overloadable)) inline int tx_any(int8 v) { return tx_any(v.lo | v.hi); }
 #endif
+#if TX_AVX512
+/* With AVX-512 (kernels/texray.cl TX_AVX512) the 16 sign bits as one mask register: a lane
+ * mask from a comparison already is one, so any() is a kortest, not a shuffle, an or and a
+ * movmskps. */
+__attribute__((overloadable)) inline int tx_any(int16 v) { return __builtin_ia32_cvtd2mask512(v) != 0; }
+#else
 __attribute__((overloadable)) inline int tx_any(int16 v) { return tx_any(v.lo | v.hi); }
+#endif
 #undef any
 #define any tx_any
 /* all(intN): every lane's sign bit set (core/sampler.h's lane masks). */
@@ -166,7 +173,11 @@ __attribute__((overloadable)) inline int tx_all(int8 v) { return __builtin_ia32_
 __attribute__((overloadable)) inline int tx_all(int4 v) { return (v.x & v.y & v.z & v.w) < 0; }
 __attribute__((overloadable)) inline int tx_all(int8 v) { return tx_all(v.lo & v.hi); }
 #endif
+#if TX_AVX512
+__attribute__((overloadable)) inline int tx_all(int16 v) { return __builtin_ia32_cvtd2mask512(v) == 0xffff; }
+#else
 __attribute__((overloadable)) inline int tx_all(int16 v) { return tx_all(v.lo & v.hi); }
+#endif
 #undef all
 #define all tx_all
 
