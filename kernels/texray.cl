@@ -7,7 +7,7 @@
  * intersect, surface, shadow, shade: stages/) do the same steps one per launch with
  * per-ray records between them in global memory, for timing each step alone (texray
  * bench) and for the AOV pass; `occluded` times any-hit traversal alone;
- * adaptive_mark and adaptive_list (stages/adaptive.cl, with TX_ADAPTIVE) decide which
+ * adaptive_mark, _count, _scan and _list (stages/adaptive.cl, with TX_ADAPTIVE) decide which
  * pixels take adaptive sampling's next round. Both
  * pipelines call the same functions and give the same image, bit for bit.
  *

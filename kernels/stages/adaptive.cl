@@ -10,14 +10,19 @@
  *     an older stamp (the host zeroes the tile's stamps before its first round), so only
  *     this round's pixels count as unconverged: one that was not sampled had converged,
  *     and so had its neighbours, and it has no new samples.
- *   adaptive_list: each pixel of a half of the tile (rows x width from tile pixel p0,
+ *   adaptive_count, adaptive_scan, adaptive_list: each pixel of the tile (rows x width,
  *     image row row0 at its top) goes on if a pixel of its 3x3 neighbourhood within its
- *     block of block_rows image rows (rows y / block_rows alike) and within the half
- *     carries the tag: it appends its tile index to `active` (counts[slot] entries: the
- *     half's atomic counter, which the host zeroes). The list's order depends on the work-items' timing, not
- *     what a pixel takes: its samples are fixed by its index and the round, and each
- *     pixel's sums by its own samples in order, whichever work-item takes it
- *     (texray.device.features.pixels_per_item). */
+ *     block of block_rows image rows (rows y / block_rows alike) and within the tile
+ *     carries the tag. Work-item r counts row r's pixels that go on, one work-item turns
+ *     the counts into each row's first entry (and the list's length, *count, what the host
+ *     reads back), and work-item r writes row r's tile indices from there: the list in
+ *     tile order, as the host's numpy made it, whatever the work-items' timing. (An order
+ *     that depended on it, appended through an atomic counter, changed the displaced torus's
+ *     image in its last bits from run to run: the work-items of the next round take their
+ *     pixels from the list a few at a time, and its displacement search rounds by the packet
+ *     its lanes share. One work-item per pixel, reading its 9 stamps through bounds tests,
+ *     cost 1 ms of CPU time per round on a 512x256 tile (perf); a row's sliding window reads
+ *     a third of that, with no division per pixel.) */
 #if TX_ADAPTIVE
 
 __kernel void adaptive_mark(__global const float4* accum, __global const float* sum_y2,
@@ -30,23 +35,66 @@ __kernel void adaptive_mark(__global const float4* accum, __global const float* 
     stamp[p] = adaptive_open(accum[p], sum_y2[p], threshold, floor_y) ? (uchar)tag : (uchar)0;
 }
 
-__kernel void adaptive_list(__global const uchar* stamp, uint tag, uint p0, uint rows, uint width, uint row0,
-                            uint block_rows, __global uint* active, __global uint* counts, uint slot)
+/* Column x of row r's 3x1 neighbourhood within the block (su: the row above or r itself,
+ * sd: the row below or r itself) carries the tag t. */
+#define TX_AD_COL(x) ((su[x] == t) | (s0[x] == t) | (sd[x] == t))
+#define TX_AD_ROW(stamp, r, rows, width, row0, block_rows)                                          \
+    uint y = (row0) + (r), b = TX_MAX((block_rows), 1u);                                             \
+    __global const uchar* s0 = (stamp) + (r) * (width);                                              \
+    __global const uchar* su = ((r) > 0u && (y % b) != 0u) ? s0 - (width) : s0;                      \
+    __global const uchar* sd = ((r) + 1u < (rows) && (y % b) != b - 1u) ? s0 + (width) : s0;
+
+/* Row r's count of pixels that go on (a window sliding along the row: each stamp read three
+ * times). */
+__kernel void adaptive_count(__global const uchar* stamp, uint tag, uint rows, uint width, uint row0,
+                             uint block_rows, __global uint* row_count)
 {
-    uint gid = get_global_id(0);
-    if (width == 0u || gid >= rows * width) return;
-    uint r = gid / width, x = gid % width;
-    uint y = row0 + r, b = TX_MAX(block_rows, 1u);
-    uint r_lo = (r > 0u && (y % b) != 0u) ? r - 1u : r;                  /* the row above, in the block */
-    uint r_hi = (r + 1u < rows && (y % b) != b - 1u) ? r + 1u : r;       /* the row below, in the block */
-    uint x_lo = x > 0u ? x - 1u : x, x_hi = x + 1u < width ? x + 1u : x;
-    uint t = tag & 0xffu;
-    int go = 0;
-    for (uint i = r_lo; i <= r_hi; ++i)
-        for (uint j = x_lo; j <= x_hi; ++j)
-            go |= stamp[p0 + i * width + j] == t;
-    if (go)
-        active[atomic_inc(counts + slot)] = p0 + gid;
+    uint r = get_global_id(0);
+    if (r >= rows) return;
+    TX_AD_ROW(stamp, r, rows, width, row0, block_rows)
+    uchar t = (uchar)tag;
+    uint n = 0u;
+    int prev = 0, cur = width ? TX_AD_COL(0) : 0;
+    for (uint x = 0; x < width; ++x) {
+        int next = x + 1u < width ? TX_AD_COL(x + 1u) : 0;
+        n += (uint)(prev | cur | next);
+        prev = cur; cur = next;
+    }
+    row_count[r] = n;
 }
+
+/* The rows' first entries in the list (an exclusive prefix sum of their counts, in place)
+ * and the list's length in *count: one work-item, a tile's rows in turn. */
+__kernel void adaptive_scan(__global uint* row_count, uint rows, __global uint* count)
+{
+    if (get_global_id(0) != 0u) return;
+    uint total = 0u;
+    for (uint r = 0; r < rows; ++r) {
+        uint c = row_count[r];
+        row_count[r] = total;
+        total += c;
+    }
+    *count = total;
+}
+
+/* Row r's pixels that go on, in order, from its first entry of the list. */
+__kernel void adaptive_list(__global const uchar* stamp, uint tag, uint rows, uint width, uint row0,
+                            uint block_rows, __global const uint* row_first, __global uint* active)
+{
+    uint r = get_global_id(0);
+    if (r >= rows) return;
+    TX_AD_ROW(stamp, r, rows, width, row0, block_rows)
+    uchar t = (uchar)tag;
+    uint k = row_first[r];
+    int prev = 0, cur = width ? TX_AD_COL(0) : 0;
+    for (uint x = 0; x < width; ++x) {
+        int next = x + 1u < width ? TX_AD_COL(x + 1u) : 0;
+        if (prev | cur | next)
+            active[k++] = r * width + x;
+        prev = cur; cur = next;
+    }
+}
+#undef TX_AD_COL
+#undef TX_AD_ROW
 
 #endif

@@ -11,37 +11,40 @@ from texray.device.features import Features, compile_options
 from texray.renderer.adaptive import BLOCK_ROWS, FLOOR
 
 
-def _decide(rt, acc, y2, threshold, rows, width, row0=0, listed=None, stamps=None, tag=1, p0=0):
-    """The sorted tile indices that adaptive_list appends after adaptive_mark stamped the
-    ``listed`` pixels (default all) of a tile of rows x width pixels from image row ``row0``
-    (from tile pixel p0: a half), starting from ``stamps`` (default zeros); and the stamps."""
+def _decide(rt, acc, y2, threshold, rows, width, row0=0, listed=None, stamps=None, tag=1):
+    """The tile indices that adaptive_count, _scan and _list write after adaptive_mark stamped the
+    ``listed`` pixels (default all) of a tile of rows x width pixels from image row ``row0``,
+    starting from ``stamps`` (default zeros); and the stamps."""
     prg = rt.program(compile_options(Features(adaptive=True)))
-    mark, lst = cl.Kernel(prg, "adaptive_mark"), cl.Kernel(prg, "adaptive_list")
-    n = p0 + rows * width
+    mark, cnt, scan, lst = (cl.Kernel(prg, k) for k in ("adaptive_mark", "adaptive_count", "adaptive_scan",
+                                                         "adaptive_list"))
+    n = rows * width
     mf, ctx, q, u = cl.mem_flags, rt.context, rt.queue, np.uint32
-    listed = np.arange(p0, n, dtype=np.uint32) if listed is None else np.asarray(listed, np.uint32)
+    listed = np.arange(n, dtype=np.uint32) if listed is None else np.asarray(listed, np.uint32)
     acc_b = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(acc, np.float32))
     y2_b = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(y2, np.float32))
     st = np.zeros(n, np.uint8) if stamps is None else np.asarray(stamps, np.uint8).copy()
     st_b = cl.Buffer(ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=st)
-    act = np.full(max(n, len(listed)), 0xFFFFFFFF, np.uint32)
+    act = np.full(max(n, len(listed)) + 1, 0xFFFFFFFF, np.uint32)      # one entry past the tile: untouched
     act[:len(listed)] = listed
     act_b = cl.Buffer(ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=act)
-    counts = np.array([7, 7], np.uint32)
-    cnt_b = cl.Buffer(ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=counts)
+    count = np.array([7], np.uint32)
+    cnt_b = cl.Buffer(ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=count)
     if len(listed):
         mark(q, (len(listed),), None, acc_b, y2_b, act_b, u(len(listed)), st_b, u(tag), np.float32(threshold),
              np.float32(FLOOR))
-    cl.enqueue_fill_buffer(q, cnt_b, np.uint32(0), 4, 4)
-    lst(q, (rows * width,), None, st_b, u(tag), u(p0), u(rows), u(width), u(row0), u(BLOCK_ROWS), act_b, cnt_b,
-        u(1))
+    rows_b = cl.Buffer(ctx, mf.READ_WRITE, 4 * rows)
+    args = (st_b, u(tag), u(rows), u(width), u(row0), u(BLOCK_ROWS))
+    cnt(q, (rows,), None, *args, rows_b)
+    scan(q, (1,), None, rows_b, u(rows), cnt_b)
+    lst(q, (rows,), None, *args, rows_b, act_b)
     cl.enqueue_copy(q, act, act_b)
-    cl.enqueue_copy(q, counts, cnt_b)
+    cl.enqueue_copy(q, count, cnt_b)
     cl.enqueue_copy(q, st, st_b)
-    assert counts[0] == 7                                   # the other half's counter untouched
-    out = act[:counts[1]]
-    assert len(np.unique(out)) == len(out)                  # each pixel once
-    return np.sort(out), st
+    assert act[-1] == 0xFFFFFFFF
+    out = act[:count[0]]
+    assert np.all(np.diff(out.astype(np.int64)) > 0)        # each pixel once, in tile order
+    return out, st
 
 
 def _sums(rng, npix, nmax=16):
@@ -155,10 +158,9 @@ def test_the_dilation_stays_within_a_block_of_rows_and_the_tile(rt):
 
 @pytest.mark.parametrize("rows, width, row0", [(32, 37, 0), (16, 1, 16), (7, 9, 21), (48, 64, 8)])
 def test_the_list_is_the_float64_rule_dilated(rt, rows, width, row0):
-    """Random sums, a round that sampled a random subset of a half's pixels (the others
+    """Random sums, a round that sampled a random subset of a tile's pixels (the others
     carry an older round's stamp or none): the device's list is the reference's
-    dilation of the listed pixels' unconverged set, each pixel once; the half starts at
-    tile pixel p0 (the second half of a tile)."""
+    dilation of the listed pixels' unconverged set, each pixel once."""
     _list_case(rt, rows, width, row0)
 
 
@@ -176,25 +178,23 @@ def test_the_decision_on_every_device(any_rt):
 
 def _list_case(rt, rows, width, row0):
     rng = np.random.default_rng(rows * 1000 + width)
-    p0 = width * BLOCK_ROWS
     npix = rows * width
-    acc, y2 = _sums(rng, p0 + npix)
-    quiet = rng.random(p0 + npix) < 0.93                  # most pixels constant (grey 0.3): converged
+    acc, y2 = _sums(rng, npix)
+    quiet = rng.random(npix) < 0.93                       # most pixels constant (grey 0.3): converged
     acc[quiet, :3] = acc[quiet, 3:4] * np.float32(0.3)
     y2[quiet] = acc[quiet, 3] * np.float32(0.09)
     threshold = 0.05
-    listed = p0 + np.flatnonzero(rng.random(npix) < 0.6)
+    listed = np.flatnonzero(rng.random(npix) < 0.6)
     acc[listed[len(listed) // 2]], y2[listed[len(listed) // 2]] = (9, 0, 0, 4), 40     # one surely noisy
-    stamps = rng.choice([0, 1, 2], p0 + npix).astype(np.uint8)              # older rounds' stamps: tag 3 now
-    active, st = _decide(rt, acc, y2, threshold, rows, width, row0=row0, listed=listed, stamps=stamps, tag=3, p0=p0)
+    stamps = rng.choice([0, 1, 2], npix).astype(np.uint8)                    # older rounds' stamps: tag 3 now
+    active, st = _decide(rt, acc, y2, threshold, rows, width, row0=row0, listed=listed, stamps=stamps, tag=3)
     mean, se = ref.adaptive_standard_error(acc[:, :3], y2, acc[:, 3])
     bound = threshold * np.maximum(mean, FLOOR)
     assert np.all(np.abs(se - bound)[listed] > 1e-4 * bound[listed])        # no pixel on the edge of the rule
     open_ = np.zeros(npix, bool)
-    open_[listed - p0] = ref.adaptive_unconverged(mean, se, threshold)[listed]
-    want = p0 + np.flatnonzero(ref.adaptive_dilate(open_, rows, width, row0))
+    open_[listed] = ref.adaptive_unconverged(mean, se, threshold)[listed]
+    want = np.flatnonzero(ref.adaptive_dilate(open_, rows, width, row0))
     np.testing.assert_array_equal(active, want)
     assert 0 < len(want) < npix
-    unlisted = np.setdiff1d(np.arange(p0, p0 + npix), listed)
+    unlisted = np.setdiff1d(np.arange(npix), listed)
     np.testing.assert_array_equal(st[unlisted], stamps[unlisted])            # only the round's pixels stamped
-    np.testing.assert_array_equal(st[:p0], stamps[:p0])                      # nor the other half's

@@ -188,7 +188,6 @@ class Runtime:
         self._programs = {}
         self._lock = threading.Lock()
         self._thread = threading.local()      # .kernels: (program, name) -> cl.Kernel, per thread
-        self._side_queue = None
         self.build_log = []          # (options, seconds) per program built in this process
         # Defines naming the driver, for its workarounds (core/builtins.h: TX_POCL).
         self.kind = _device_kind(dev)
@@ -262,16 +261,6 @@ class Runtime:
                 self.build_log.append((tuple(options), time.perf_counter() - t0))
                 self._programs[key] = prg
         return prg
-
-    @property
-    def side_queue(self) -> cl.CommandQueue:
-        """A second profiling queue on the device, for work that overlaps the main queue's
-        (adaptive sampling's two halves of a tile, texray.renderer.frame); made on first use."""
-        with self._lock:
-            if self._side_queue is None:
-                self._side_queue = cl.CommandQueue(self.context,
-                                                   properties=cl.command_queue_properties.PROFILING_ENABLE)
-            return self._side_queue
 
     def kernel(self, prg: cl.Program, name: str) -> cl.Kernel:
         """The kernel ``name`` of ``prg`` (a program of this runtime), made once per thread and

@@ -72,11 +72,11 @@ def device_program(cs, device, local_size, samples=0):
 
 def per_ray_bytes(cs, fused, aovs, adaptive):
     """Device bytes per pixel of a tile: the accumulator; the staged pipeline (and the AOV
-    pass) add the per-ray records; adaptive sampling its luminance squares, the two
-    halves' lists of active pixels and the decisions' stamps (_Run.adaptive_tile)."""
+    pass) add the per-ray records; adaptive sampling its luminance squares, its list of
+    active pixels and the decisions' stamps (_Run.adaptive_tile)."""
     nl = max(len(cs.lights), 1)
     return (16 + (0 if fused and not aovs else RAY_BYTES - 16 + nl) + (4 * layout.AOV_FLOATS if aovs else 0)
-            + (13 if adaptive is not None else 0))
+            + (9 if adaptive is not None else 0))
 
 
 def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, jitter=True, local=0, aovs=(),
@@ -210,12 +210,11 @@ class _Run:
             self.accum = cl.Buffer(ctx, mf.READ_WRITE, n_max * 16)
             self.aov_buf = cl.Buffer(ctx, mf.WRITE_ONLY, n_max * 4 * layout.AOV_FLOATS) if aovs else None
             self.active = cl.Buffer(ctx, mf.READ_WRITE, n_max * 4) if adaptive is not None else None
-            # the second half's active pixels (adaptive_tile)
-            self.active_b = cl.Buffer(ctx, mf.READ_WRITE, n_max * 4) if adaptive is not None else None
             self.sum_y2 = cl.Buffer(ctx, mf.READ_WRITE, n_max * 4) if adaptive is not None else None
-            # adaptive sampling's decisions (stages/adaptive.cl): a stamp per pixel, a count per half
+            # adaptive sampling's decisions (stages/adaptive.cl): a stamp per pixel, the list's count
             self.stamp = cl.Buffer(ctx, mf.READ_WRITE, n_max) if adaptive is not None else None
-            self.counts = cl.Buffer(ctx, mf.READ_WRITE, 2 * 4) if adaptive is not None else None
+            self.count = cl.Buffer(ctx, mf.READ_WRITE, 4) if adaptive is not None else None
+            self.row_count = cl.Buffer(ctx, mf.READ_WRITE, rows * 4) if adaptive is not None else None
             cam = np.zeros(1, layout.CAMERA)
             eye, fwd, right, upv = camera.basis(width / height)
             cam["eye"], cam["forward"], cam["right"], cam["up"] = eye, fwd, right, upv
@@ -227,7 +226,8 @@ class _Run:
         if fused and aovs:
             self.events.update({name: [] for name in ("raygen", "intersect", "surface")})
         if adaptive is not None:
-            self.events.update({name: [] for name in ("adaptive_mark", "adaptive_list")})
+            self.events.update({name: [] for name in ("adaptive_mark", "adaptive_count", "adaptive_scan",
+                                                      "adaptive_list")})
         self.k = {name: rt.kernel(prg, name) for name in self.events}     # only the kernels this render runs
         u32 = np.uint32
         self.geom, self.light = self.up.geom, self.up.light
@@ -253,69 +253,40 @@ class _Run:
         (texray.renderer.adaptive), up to spp samples.
 
         Between rounds the device decides which pixels go on (stages/adaptive.cl: the
-        stopping rule, the dilation and the list of those pixels, written where the next
-        round reads it) and the host reads back their count, to size the next launch. The
-        tile's rows are taken as two halves of whole blocks (a pixel's decision depends on
-        its block alone: the same samples as one tile), each with its own queue, list and
-        count, their rounds interleaved: while the host waits for one half's count and
-        launches its next round, the device renders the other's. (The decision was host
-        numpy on the read-back sums until 2026-12-07: 2.5 MB read back and 3-4 ms of host
-        time per round on a 512x256 tile.)"""
-        q, spp, width = self.rt.queue, self.spp, self.width
+        stopping rule, the dilation within blocks and the list of those pixels, written where
+        the next round reads it), and the host reads back their count, to size the next
+        launch. (Until 2026-12-07 the host decided, in numpy on the read-back sums, and so a
+        tile ran as two halves on two queues, the device rendering one half's round while the
+        host decided the other's; with the decision on the device one list measured 0.93 of
+        the brick wall's frame and 0.88 of the globe's: tools/ab.py --adaptive.)"""
+        q, spp, width, u32 = self.rt.queue, self.spp, self.width, np.uint32
         cl.enqueue_fill_buffer(q, self.sum_y2, np.float32(0), 0, n * 4)
         cl.enqueue_fill_buffer(q, self.stamp, np.uint8(0), 0, n)
-        split = rows // 2 // BLOCK_ROWS * BLOCK_ROWS
-        halves = [(0, split), (split, rows)] if split and y0 % BLOCK_ROWS == 0 else [(0, rows)]
-        if len(halves) > 1:
-            q.finish()                 # the zeros, before the other queue's launches
+        every = np.arange(n, dtype=np.uint32)       # the first round's list: every pixel
+        cl.enqueue_copy(q, self.active, every, is_blocking=False)
+        count, m, done = np.zeros(1, np.uint32), n, 0
         rounds = round_sizes(spp)
-        u32 = np.uint32
-        state = [{"r0": r0, "rows": r1 - r0, "p0": r0 * width, "p1": r1 * width, "n": (r1 - r0) * width,
-                  "buf": self.active if i == 0 else self.active_b, "q": q if i == 0 else self.rt.side_queue,
-                  "count": np.zeros(1, np.uint32), "i": i}
-                 for i, (r0, r1) in enumerate(halves)]
-        for h in state:                # the first round's list: every pixel of the half
-            h["first"] = np.arange(h["p0"], h["p1"], dtype=np.uint32)
-            cl.enqueue_copy(h["q"], h["buf"], h["first"], is_blocking=False)
-
-        def launch(h, done, count, tag):
-            """Round ``count`` samples from ``done`` of half h's listed pixels and, unless it is
-            the last round, the decision for the next (round number ``tag``) and the read-back
-            of its count."""
-            hq, m = h["q"], h["n"]
+        for tag, samples in enumerate(rounds, 1):
+            if tag > 1:
+                read.wait()
+                m = int(count[0])
+                if not m:
+                    break
             gsize, lsize = self.rt.launch_size(-(-m // self.pixels), self.local)
-            for first in range(done, done + count, per_launch):
-                report(self.fused(gsize, lsize, m, y0, first, min(per_launch, done + count - first),
-                                  queue=hq, active=h["buf"]), (h["p1"] - h["p0"]) / n)
-            self.samples += m * count
-            if done + count < spp:
+            for first in range(done, done + samples, per_launch):
+                report(self.fused(gsize, lsize, m, y0, first, min(per_launch, done + samples - first)))
+            self.samples += m * samples
+            done += samples
+            if done < spp:              # the decision for the next round: round `tag`'s stamps
                 gsize, lsize = self.rt.launch_size(m, self.local)
-                self._launch("adaptive_mark", gsize, lsize, self.accum, self.sum_y2, h["buf"], u32(m), self.stamp,
-                             u32(tag), np.float32(self.adaptive), np.float32(FLOOR), queue=hq)
-                cl.enqueue_fill_buffer(hq, self.counts, np.uint32(0), 4 * h["i"], 4)
-                gsize, lsize = self.rt.launch_size(h["p1"] - h["p0"], self.local)
-                self._launch("adaptive_list", gsize, lsize, self.stamp, u32(tag), u32(h["p0"]), u32(h["rows"]),
-                             u32(width), u32(y0 + h["r0"]), u32(BLOCK_ROWS), h["buf"], self.counts,
-                             u32(h["i"]), queue=hq)
-                h["read"] = cl.enqueue_copy(hq, h["count"], self.counts, src_offset=4 * h["i"], is_blocking=False)
-
-        def decide(h):
-            """Half h's count of pixels that go on (the list is on the device already)."""
-            h["read"].wait()
-            h["n"] = int(h["count"][0])
-
-        for h in state:
-            launch(h, 0, rounds[0], 1)
-        done = rounds[0]
-        for r, count in enumerate(rounds[1:], 2):
-            for h in state:
-                if h["n"]:
-                    decide(h)
-                    if h["n"]:
-                        launch(h, done, count, r)
-            done += count
-        if len(state) > 1:
-            state[1]["q"].finish()     # the other queue's launches, before the tile's read-back on q
+                self._launch("adaptive_mark", gsize, lsize, self.accum, self.sum_y2, self.active, u32(m), self.stamp,
+                             u32(tag), np.float32(self.adaptive), np.float32(FLOOR))
+                gsize, lsize = self.rt.launch_size(rows, self.local)
+                rows_args = (self.stamp, u32(tag), u32(rows), u32(width), u32(y0), u32(BLOCK_ROWS))
+                self._launch("adaptive_count", gsize, lsize, *rows_args, self.row_count)
+                self._launch("adaptive_scan", (1,), None, self.row_count, u32(rows), self.count)
+                self._launch("adaptive_list", gsize, lsize, *rows_args, self.row_count, self.active)
+                read = cl.enqueue_copy(q, count, self.count, is_blocking=False)
 
     def trace(self, gsize, lsize, n, y0, sample, jit, aov):
         """raygen -> intersect -> surface of one sample of the tile (``aov``: the AOV buffer or None)."""
