@@ -26,7 +26,7 @@ def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
                     "TEXRAY_TEST_SLOW_BUILDS=1 builds it")
     if which.endswith("avx512") and (any_rt.kind != "pocl" or not cpu_avx512()):
         pytest.skip("AVX-512 programs (kernels/texray.cl TX_AVX512) are PoCL's on a CPU with AVX-512")
-    f = dataclasses.replace(Features.generic(), one_light=True) if which == "generic" else dataclasses.replace(
+    f = dataclasses.replace(Features.generic(), one_light=True, adaptive=True) if which == "generic" else dataclasses.replace(
         Features(), shadows=False, max_lights=1, stack_size=32)
     options = compile_options(f)
     if which.startswith("packet"):     # shadow-ray packets (accel/packet.h), on any device
@@ -44,6 +44,7 @@ def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
     names = set(prg.get_info(cl.program_info.KERNEL_NAMES).split(";"))
     assert {"raygen", "intersect", "surface", "shadow", "shade", "render_fused", "occluded"} <= names
     assert ("occluded_packet" in names) == which.startswith(("packet", "surface"))
+    assert ({"adaptive_mark", "adaptive_count", "adaptive_scan", "adaptive_list"} <= names) == (which == "generic")
 
 
 def test_the_bvh_build_kernel_builds_and_gives_a_valid_tree(any_rt, monkeypatch):

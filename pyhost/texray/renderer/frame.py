@@ -262,8 +262,9 @@ class _Run:
         q, spp, width, u32 = self.rt.queue, self.spp, self.width, np.uint32
         cl.enqueue_fill_buffer(q, self.sum_y2, np.float32(0), 0, n * 4)
         cl.enqueue_fill_buffer(q, self.stamp, np.uint8(0), 0, n)
-        every = np.arange(n, dtype=np.uint32)       # the first round's list: every pixel
-        cl.enqueue_copy(q, self.active, every, is_blocking=False)
+        # the first round's list, every pixel (its event kept: pyopencl's event of a
+        # non-blocking copy holds the array, and dropped at once it would wait for the copy)
+        upload = cl.enqueue_copy(q, self.active, np.arange(n, dtype=np.uint32), is_blocking=False)
         count, m, done = np.zeros(1, np.uint32), n, 0
         rounds = round_sizes(spp)
         for tag, samples in enumerate(rounds, 1):
@@ -287,6 +288,7 @@ class _Run:
                 self._launch("adaptive_scan", (1,), None, self.row_count, u32(rows), self.count)
                 self._launch("adaptive_list", gsize, lsize, *rows_args, self.row_count, self.active)
                 read = cl.enqueue_copy(q, count, self.count, is_blocking=False)
+        upload.wait()
 
     def trace(self, gsize, lsize, n, y0, sample, jit, aov):
         """raygen -> intersect -> surface of one sample of the tile (``aov``: the AOV buffer or None)."""
