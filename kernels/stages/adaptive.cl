@@ -5,7 +5,7 @@
  * back one count:
  *
  *   adaptive_mark: each pixel of the round's list (`active`, n entries: the pixels the
- *     round sampled) stamps itself with `tag` (the round's number, >= 1) where it has not
+ *     round sampled; NULL in the first round, which samples pixels 0 .. n - 1) stamps itself with `tag` (the round's number, >= 1) where it has not
  *     converged (core/adaptive.h), 0 where it has. Pixels the round did not sample keep
  *     an older stamp (the host zeroes the tile's stamps before its first round), so only
  *     this round's pixels count as unconverged: one that was not sampled had converged,
@@ -31,7 +31,7 @@ __kernel void adaptive_mark(__global const float4* accum, __global const float* 
 {
     uint gid = get_global_id(0);
     if (gid >= n) return;
-    uint p = active[gid];
+    uint p = active ? active[gid] : gid;
     stamp[p] = adaptive_open(accum[p], sum_y2[p], threshold, floor_y) ? (uchar)tag : (uchar)0;
 }
 

@@ -7,7 +7,8 @@
  * each stage alone and for the AOV pass. */
 
 /* With TX_ADAPTIVE (adaptive sampling, texray.renderer.adaptive) the work-items take the
- * tile's pixels listed in `active` (n of them; work-item gid the entries gid * pixels ..)
+ * tile's pixels listed in `active` (n of them; work-item gid the entries gid * pixels ..;
+ * NULL in the first round: pixels 0 .. n - 1)
  * and each also adds the squares of its samples' luminance to sum_y2, for the variance
  * estimate of stages/adaptive.cl; otherwise work-item gid takes pixels gid * pixels .. of the tile and both are
  * NULL.
@@ -51,7 +52,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
     uint pixid[TX_PIX_MAX];                       /* the listed pixels' indices in the tile */
     float y2[TX_PIX_MAX];
     for (uint q = 0; q < npix; ++q) {
-        pixid[q] = active[gid * pixels + q];
+        pixid[q] = active ? active[gid * pixels + q] : gid * pixels + q;     /* NULL: every pixel */
         y2[q] = 0.0f;
     }
 #define TX_PIXEL(q) pixid[q]

@@ -13,25 +13,27 @@ from texray.renderer.adaptive import BLOCK_ROWS, FLOOR
 
 def _decide(rt, acc, y2, threshold, rows, width, row0=0, listed=None, stamps=None, tag=1):
     """The tile indices that adaptive_count, _scan and _list write after adaptive_mark stamped the
-    ``listed`` pixels (default all) of a tile of rows x width pixels from image row ``row0``,
-    starting from ``stamps`` (default zeros); and the stamps."""
+    ``listed`` pixels (default: all, as a first round, with no list) of a tile of rows x width
+    pixels from image row ``row0``, starting from ``stamps`` (default zeros); and the stamps."""
     prg = rt.program(compile_options(Features(adaptive=True)))
     mark, cnt, scan, lst = (cl.Kernel(prg, k) for k in ("adaptive_mark", "adaptive_count", "adaptive_scan",
                                                          "adaptive_list"))
     n = rows * width
     mf, ctx, q, u = cl.mem_flags, rt.context, rt.queue, np.uint32
-    listed = np.arange(n, dtype=np.uint32) if listed is None else np.asarray(listed, np.uint32)
+    first_round = listed is None            # every pixel: the kernels take no list (NULL)
+    listed = np.arange(n, dtype=np.uint32) if first_round else np.asarray(listed, np.uint32)
     acc_b = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(acc, np.float32))
     y2_b = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(y2, np.float32))
     st = np.zeros(n, np.uint8) if stamps is None else np.asarray(stamps, np.uint8).copy()
     st_b = cl.Buffer(ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=st)
     act = np.full(max(n, len(listed)) + 1, 0xFFFFFFFF, np.uint32)      # one entry past the tile: untouched
-    act[:len(listed)] = listed
+    act[:len(listed)] = 0xFFFFFFFF if first_round else listed               # a first round reads no list
     act_b = cl.Buffer(ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=act)
     count = np.array([7], np.uint32)
     cnt_b = cl.Buffer(ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=count)
     if len(listed):
-        mark(q, (len(listed),), None, acc_b, y2_b, act_b, u(len(listed)), st_b, u(tag), np.float32(threshold),
+        mark(q, (len(listed),), None, acc_b, y2_b, None if first_round else act_b, u(len(listed)), st_b, u(tag),
+             np.float32(threshold),
              np.float32(FLOOR))
     rows_b = cl.Buffer(ctx, mf.READ_WRITE, 4 * rows)
     args = (st_b, u(tag), u(rows), u(width), u(row0), u(BLOCK_ROWS))
@@ -170,6 +172,14 @@ def test_the_decision_on_every_device(any_rt):
     from conftest import OCLGRIND_LOG
     size = OCLGRIND_LOG.stat().st_size if OCLGRIND_LOG.exists() else 0
     _list_case(any_rt, 40, 23, 8)
+    rng = np.random.default_rng(5)                          # a first round: no list (NULL)
+    acc, y2 = _sums(rng, 16 * 9)
+    active, _ = _decide(any_rt, acc, y2, 0.05, 16, 9)
+    mean, se = ref.adaptive_standard_error(acc[:, :3], y2, acc[:, 3])
+    bound = 0.05 * np.maximum(mean, FLOOR)
+    assert np.all(np.abs(se - bound) > 1e-4 * bound)
+    want = np.flatnonzero(ref.adaptive_dilate(ref.adaptive_unconverged(mean, se, 0.05), 16, 9))
+    np.testing.assert_array_equal(active, want)
     if OCLGRIND_LOG.exists() and OCLGRIND_LOG.stat().st_size != size:
         with open(OCLGRIND_LOG) as f:
             f.seek(size)

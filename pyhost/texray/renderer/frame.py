@@ -234,19 +234,19 @@ class _Run:
         self.surface_args = self.up.args("SURFACE", cam=self.cam, image_w=u32(width), image_h=u32(height),
                                          spp=u32(spp))
 
-    def _launch(self, name, gsize, lsize, *args, queue=None):
-        ev = self.k[name](self.rt.queue if queue is None else queue, gsize, lsize, *args)
+    def _launch(self, name, gsize, lsize, *args):
+        ev = self.k[name](self.rt.queue, gsize, lsize, *args)
         self.events[name].append(ev)
         return ev
 
-    def fused(self, gsize, lsize, n, y0, first, count, queue=None, active=None):
+    def fused(self, gsize, lsize, n, y0, first, count, active=None):
         """``count`` samples from ``first`` of every pixel of the tile at row y0 (with adaptive
-        sampling: of the n pixels listed in ``active``, default self.active; on ``queue``)."""
+        sampling: of the n pixels listed in ``active``, or pixels 0 .. n - 1 for None)."""
         u32, cs = np.uint32, self.cs
-        return self._launch("render_fused", gsize, lsize, self.accum, self.active if active is None else active,
+        return self._launch("render_fused", gsize, lsize, self.accum, active,
                             self.sum_y2, u32(n), u32(y0), u32(first), u32(count), u32(self.pixels),
                             u32(self.seed), u32(self.jitter), *self.geom, *self.surface_args, *self.light,
-                            cs.ambient, cs.background, queue=queue)
+                            cs.ambient, cs.background)
 
     def adaptive_tile(self, n, y0, rows, per_launch, report):
         """Sample the tile's n pixels in rounds, each round only those still active
@@ -262,10 +262,8 @@ class _Run:
         q, spp, width, u32 = self.rt.queue, self.spp, self.width, np.uint32
         cl.enqueue_fill_buffer(q, self.sum_y2, np.float32(0), 0, n * 4)
         cl.enqueue_fill_buffer(q, self.stamp, np.uint8(0), 0, n)
-        # the first round's list, every pixel (its event kept: pyopencl's event of a
-        # non-blocking copy holds the array, and dropped at once it would wait for the copy)
-        upload = cl.enqueue_copy(q, self.active, np.arange(n, dtype=np.uint32), is_blocking=False)
         count, m, done = np.zeros(1, np.uint32), n, 0
+        listed = None                   # the first round: every pixel, no list (the kernels take NULL)
         rounds = round_sizes(spp)
         for tag, samples in enumerate(rounds, 1):
             if tag > 1:
@@ -275,12 +273,13 @@ class _Run:
                     break
             gsize, lsize = self.rt.launch_size(-(-m // self.pixels), self.local)
             for first in range(done, done + samples, per_launch):
-                report(self.fused(gsize, lsize, m, y0, first, min(per_launch, done + samples - first)))
+                report(self.fused(gsize, lsize, m, y0, first, min(per_launch, done + samples - first),
+                                  active=listed))
             self.samples += m * samples
             done += samples
             if done < spp:              # the decision for the next round: round `tag`'s stamps
                 gsize, lsize = self.rt.launch_size(m, self.local)
-                self._launch("adaptive_mark", gsize, lsize, self.accum, self.sum_y2, self.active, u32(m), self.stamp,
+                self._launch("adaptive_mark", gsize, lsize, self.accum, self.sum_y2, listed, u32(m), self.stamp,
                              u32(tag), np.float32(self.adaptive), np.float32(FLOOR))
                 gsize, lsize = self.rt.launch_size(rows, self.local)
                 rows_args = (self.stamp, u32(tag), u32(rows), u32(width), u32(y0), u32(BLOCK_ROWS))
@@ -288,7 +287,7 @@ class _Run:
                 self._launch("adaptive_scan", (1,), None, self.row_count, u32(rows), self.count)
                 self._launch("adaptive_list", gsize, lsize, *rows_args, self.row_count, self.active)
                 read = cl.enqueue_copy(q, count, self.count, is_blocking=False)
-        upload.wait()
+                listed = self.active
 
     def trace(self, gsize, lsize, n, y0, sample, jit, aov):
         """raygen -> intersect -> surface of one sample of the tile (``aov``: the AOV buffer or None)."""
