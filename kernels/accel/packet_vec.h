@@ -225,20 +225,15 @@ inline void geom_store_packet(const int* ml, pfloat3 p, pfloat3 ng, pfloat3 dpdu
 }
 
 /* The lane a gather reads for lanes outside the stored mask ml (ints, nonzero where set):
- * its first lane (lane 0 when it is empty). On PoCL with AVX the lanes as bits, one movmskps
- * per 8 lanes (as core/builtins.h's any() and all()), and their count of trailing zeros: the
+ * its first lane (lane 0 when it is empty). On PoCL with AVX the lanes as bits (core/builtins.h
+ * tx_lane_bits, as any() and all() take them) and their count of trailing zeros: the
  * scan of the stored mask lane by lane took 2-5% of a frame (perf, the textured meshes'
  * ground). Elsewhere the scan (no bit counting: LLVM's ctlz and cttz intrinsics are not all
  * Oclgrind 21.10 runs). */
 inline uint packet_first_lane(const int* ml)
 {
 #if TX_POCL && defined(__AVX__)
-    pint m = PLOAD(ml) != (pint)(0);
-#if TX_PACKET == 16
-    uint bits = (uint)__builtin_ia32_movmskps256(as_float8(m.lo)) | (uint)__builtin_ia32_movmskps256(as_float8(m.hi)) << 8;
-#else
-    uint bits = (uint)__builtin_ia32_movmskps256(as_float8(m));
-#endif
+    uint bits = tx_lane_bits(PLOAD(ml) != (pint)(0));
     return bits != 0u ? (uint)__builtin_ctz(bits) : 0u;
 #else
     uint k0 = 0u;

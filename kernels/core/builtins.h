@@ -144,22 +144,30 @@ TX_VLOAD2(ushort, __global)
 #undef TX_VLOAD2
 #undef vload2
 #define vload2 tx_vload2
-/* any(intN): some lane's sign bit set (int8, int16: accel/packet.h's lane masks). Where the
- * target has AVX, and for all() below, the lanes' sign bits as one movmskps (a lane mask's
- * test in every packet traversal step; or-ing the lanes down to one took shuffles and
- * extracts). */
+/* tx_lane_bits(intN): the lanes' sign bits as a bit mask (lane j: bit j), where the target has
+ * AVX: one movmskps per 8 lanes, and with AVX-512 (kernels/texray.cl TX_AVX512) the 16 bits as
+ * one mask register (a lane mask from a comparison already is one: no shuffle). any() and
+ * all() below test them (a lane mask's test in every packet traversal step; or-ing the lanes
+ * down to one took shuffles and extracts), as does accel/packet_vec.h packet_first_lane. */
 #if defined(__AVX__)
-__attribute__((overloadable)) inline int tx_any(int4 v) { return __builtin_ia32_movmskps(as_float4(v)) != 0; }
-__attribute__((overloadable)) inline int tx_any(int8 v) { return __builtin_ia32_movmskps256(as_float8(v)) != 0; }
+__attribute__((overloadable)) inline uint tx_lane_bits(int4 v) { return (uint)__builtin_ia32_movmskps(as_float4(v)); }
+__attribute__((overloadable)) inline uint tx_lane_bits(int8 v) { return (uint)__builtin_ia32_movmskps256(as_float8(v)); }
+#if TX_AVX512
+__attribute__((overloadable)) inline uint tx_lane_bits(int16 v) { return (uint)__builtin_ia32_cvtd2mask512(v); }
+#else
+__attribute__((overloadable)) inline uint tx_lane_bits(int16 v) { return tx_lane_bits(v.lo) | tx_lane_bits(v.hi) << 8; }
+#endif
+#endif
+/* any(intN): some lane's sign bit set (int8, int16: accel/packet.h's lane masks). */
+#if defined(__AVX__)
+__attribute__((overloadable)) inline int tx_any(int4 v) { return tx_lane_bits(v) != 0u; }
+__attribute__((overloadable)) inline int tx_any(int8 v) { return tx_lane_bits(v) != 0u; }
 #else
 __attribute__((overloadable)) inline int tx_any(int4 v) { return (v.x | v.y | v.z | v.w) < 0; }
 __attribute__((overloadable)) inline int tx_any(int8 v) { return tx_any(v.lo | v.hi); }
 #endif
 #if TX_AVX512
-/* With AVX-512 (kernels/texray.cl TX_AVX512) the 16 sign bits as one mask register: a lane
- * mask from a comparison already is one, so any() is a kortest, not a shuffle, an or and a
- * movmskps. */
-__attribute__((overloadable)) inline int tx_any(int16 v) { return __builtin_ia32_cvtd2mask512(v) != 0; }
+__attribute__((overloadable)) inline int tx_any(int16 v) { return tx_lane_bits(v) != 0u; }
 #else
 __attribute__((overloadable)) inline int tx_any(int16 v) { return tx_any(v.lo | v.hi); }
 #endif
@@ -167,14 +175,14 @@ __attribute__((overloadable)) inline int tx_any(int16 v) { return tx_any(v.lo | 
 #define any tx_any
 /* all(intN): every lane's sign bit set (core/sampler.h's lane masks). */
 #if defined(__AVX__)
-__attribute__((overloadable)) inline int tx_all(int4 v) { return __builtin_ia32_movmskps(as_float4(v)) == 0xf; }
-__attribute__((overloadable)) inline int tx_all(int8 v) { return __builtin_ia32_movmskps256(as_float8(v)) == 0xff; }
+__attribute__((overloadable)) inline int tx_all(int4 v) { return tx_lane_bits(v) == 0xfu; }
+__attribute__((overloadable)) inline int tx_all(int8 v) { return tx_lane_bits(v) == 0xffu; }
 #else
 __attribute__((overloadable)) inline int tx_all(int4 v) { return (v.x & v.y & v.z & v.w) < 0; }
 __attribute__((overloadable)) inline int tx_all(int8 v) { return tx_all(v.lo & v.hi); }
 #endif
 #if TX_AVX512
-__attribute__((overloadable)) inline int tx_all(int16 v) { return __builtin_ia32_cvtd2mask512(v) == 0xffff; }
+__attribute__((overloadable)) inline int tx_all(int16 v) { return tx_lane_bits(v) == 0xffffu; }
 #else
 __attribute__((overloadable)) inline int tx_all(int16 v) { return tx_all(v.lo & v.hi); }
 #endif

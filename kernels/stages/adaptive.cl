@@ -35,32 +35,39 @@ __kernel void adaptive_mark(__global const float4* accum, __global const float* 
     stamp[p] = adaptive_open(accum[p], sum_y2[p], threshold, floor_y) ? (uchar)tag : (uchar)0;
 }
 
-/* Column x of row r's 3x1 neighbourhood within the block (su: the row above or r itself,
- * sd: the row below or r itself) carries the tag t. */
-#define TX_AD_COL(x) ((su[x] == t) | (s0[x] == t) | (sd[x] == t))
-#define TX_AD_ROW(stamp, r, rows, width, row0, block_rows)                                          \
-    uint y = (row0) + (r), b = TX_MAX((block_rows), 1u);                                             \
-    __global const uchar* s0 = (stamp) + (r) * (width);                                              \
-    __global const uchar* su = ((r) > 0u && (y % b) != 0u) ? s0 - (width) : s0;                      \
-    __global const uchar* sd = ((r) + 1u < (rows) && (y % b) != b - 1u) ? s0 + (width) : s0;
-
-/* Row r's count of pixels that go on (a window sliding along the row: each stamp read three
- * times). */
-__kernel void adaptive_count(__global const uchar* stamp, uint tag, uint rows, uint width, uint row0,
-                             uint block_rows, __global uint* row_count)
+/* Row r's pixels that go on (a 3x3 neighbourhood within the block carries the tag t): their
+ * count, and where `out` is not NULL their tile indices written from out[k] in order. A window
+ * sliding along the row: column x's 3x1 neighbourhood (the rows above and below where they are
+ * in the block and the tile, else row r itself) is read once for three pixels. */
+inline uint adaptive_row(__global const uchar* stamp, uchar t, uint r, uint rows, uint width, uint row0,
+                         uint block_rows, __global uint* out, uint k)
 {
-    uint r = get_global_id(0);
-    if (r >= rows) return;
-    TX_AD_ROW(stamp, r, rows, width, row0, block_rows)
-    uchar t = (uchar)tag;
+    uint y = row0 + r, b = TX_MAX(block_rows, 1u);
+    __global const uchar* s0 = stamp + r * width;
+    __global const uchar* su = (r > 0u && (y % b) != 0u) ? s0 - width : s0;
+    __global const uchar* sd = (r + 1u < rows && (y % b) != b - 1u) ? s0 + width : s0;
+#define TX_AD_COL(x) ((su[x] == t) | (s0[x] == t) | (sd[x] == t))
     uint n = 0u;
     int prev = 0, cur = width ? TX_AD_COL(0) : 0;
     for (uint x = 0; x < width; ++x) {
         int next = x + 1u < width ? TX_AD_COL(x + 1u) : 0;
-        n += (uint)(prev | cur | next);
+        if (prev | cur | next) {
+            if (out) out[k + n] = r * width + x;
+            ++n;
+        }
         prev = cur; cur = next;
     }
-    row_count[r] = n;
+#undef TX_AD_COL
+    return n;
+}
+
+/* Row r's count of pixels that go on. */
+__kernel void adaptive_count(__global const uchar* stamp, uint tag, uint rows, uint width, uint row0,
+                             uint block_rows, __global uint* row_count)
+{
+    uint r = get_global_id(0);
+    if (r < rows)
+        row_count[r] = adaptive_row(stamp, (uchar)tag, r, rows, width, row0, block_rows, 0, 0u);
 }
 
 /* The rows' first entries in the list (an exclusive prefix sum of their counts, in place)
@@ -82,19 +89,8 @@ __kernel void adaptive_list(__global const uchar* stamp, uint tag, uint rows, ui
                             uint block_rows, __global const uint* row_first, __global uint* active)
 {
     uint r = get_global_id(0);
-    if (r >= rows) return;
-    TX_AD_ROW(stamp, r, rows, width, row0, block_rows)
-    uchar t = (uchar)tag;
-    uint k = row_first[r];
-    int prev = 0, cur = width ? TX_AD_COL(0) : 0;
-    for (uint x = 0; x < width; ++x) {
-        int next = x + 1u < width ? TX_AD_COL(x + 1u) : 0;
-        if (prev | cur | next)
-            active[k++] = r * width + x;
-        prev = cur; cur = next;
-    }
+    if (r < rows)
+        adaptive_row(stamp, (uchar)tag, r, rows, width, row0, block_rows, active, row_first[r]);
 }
-#undef TX_AD_COL
-#undef TX_AD_ROW
 
 #endif
