@@ -7,7 +7,7 @@
  *   adaptive_mark: each pixel of the round's list (`active`, n entries: the pixels the
  *     round sampled; NULL in the first round, which samples pixels 0 .. n - 1) stamps itself with `tag` (the round's number, >= 1) where it has not
  *     converged (core/adaptive.h), 0 where it has. Pixels the round did not sample keep
- *     an older stamp (the host zeroes the tile's stamps before its first round), so only
+ *     an older stamp (the first round samples and so stamps every pixel), so only
  *     this round's pixels count as unconverged: one that was not sampled had converged,
  *     and so had its neighbours, and it has no new samples.
  *   adaptive_count, adaptive_scan, adaptive_list: each pixel of the tile (rows x width,

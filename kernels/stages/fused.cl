@@ -1,7 +1,8 @@
 #line 2 "stages/fused.cl"
 /* All five stages in one kernel: each work-item takes one pixel of the tile (or a few
  * neighbouring ones: `pixels` below) through `nsamples` samples (raygen -> closest hit ->
- * surface -> shadow rays -> shading) and adds their sum to the pixel's accumulator. Same functions,
+ * surface -> shadow rays -> shading) and adds their sum to the pixel's accumulator (its first
+ * launch, sample0 0, writes it). Same functions,
  * same samples, same image as the staged pipeline, without the per-ray
  * records between stages in global memory; the stage kernels stay for timing
  * each stage alone and for the AOV pass. */
@@ -409,11 +410,14 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #undef TX_LP
 #undef TX_SAMPLE_C
     }
+    /* The pixels' first samples (sample0 0) start the sums, later launches add to them: 0 +
+     * the sum, as the sums of a buffer zeroed first (the host filled it until 2026-12-08: a
+     * command and a pass over the tile's memory per frame, 0.1-0.6 ms of a 512x256 frame). */
     for (uint q = 0; q < npix; ++q)
-        accum[TX_PIXEL(q)] += (float4)(sum[q], (float)nsamples);
+        accum[TX_PIXEL(q)] = (sample0 ? accum[TX_PIXEL(q)] : (float4)(0.0f)) + (float4)(sum[q], (float)nsamples);
 #if TX_ADAPTIVE
     for (uint q = 0; q < npix; ++q)
-        sum_y2[TX_PIXEL(q)] += y2[q];
+        sum_y2[TX_PIXEL(q)] = (sample0 ? sum_y2[TX_PIXEL(q)] : 0.0f) + y2[q];
 #endif
 #undef TX_PIXEL
 }

@@ -71,11 +71,11 @@ def device_program(cs, device, local_size, samples=0):
 
 
 def per_ray_bytes(cs, fused, aovs, adaptive):
-    """Device bytes per pixel of a tile: the accumulator; the staged pipeline (and the AOV
+    """Device bytes per pixel of a tile: the accumulator and the mean (resolve's); the staged pipeline (and the AOV
     pass) add the per-ray records; adaptive sampling its luminance squares, its list of
     active pixels and the decisions' stamps (_Run.adaptive_tile)."""
     nl = max(len(cs.lights), 1)
-    return (16 + (0 if fused and not aovs else RAY_BYTES - 16 + nl) + (4 * layout.AOV_FLOATS if aovs else 0)
+    return (16 + 12 + (0 if fused and not aovs else RAY_BYTES - 16 + nl) + (4 * layout.AOV_FLOATS if aovs else 0)
             + (9 if adaptive is not None else 0))
 
 
@@ -101,7 +101,7 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
     run = _Run(rt, prg, cs, camera, width, height, spp, seed, jitter, local, tile, fused, aovs, adaptive, uploaded)
     upload_s = time.perf_counter() - t0
     img_rows = tile if sink is not None else band      # with a sink, only one band is kept
-    out = np.empty((img_rows, width, 4), np.float32)
+    out = np.empty((img_rows, width, 3), np.float32)
     aov_out = np.empty((img_rows, width, layout.AOV_FLOATS), np.float32) if aovs else None
     launches = (spp + per_launch - 1) // per_launch
     if adaptive is not None:            # the most launches the rounds can take
@@ -124,7 +124,8 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
         gsize, lsize = rt.launch_size(n, local)
         fsize, flsize = rt.launch_size((n + pixels - 1) // pixels, local)
         oy = 0 if sink is not None else y0 - y_start
-        cl.enqueue_fill_buffer(rt.queue, run.accum, np.float32(0), 0, n * 16)
+        if not fused:                   # the shade stage adds to the sums; the fused kernel starts them
+            cl.enqueue_fill_buffer(rt.queue, run.accum, np.float32(0), 0, n * 16)
         if adaptive is not None:
             run.adaptive_tile(n, y0, tile_rows, per_launch, report)
         elif fused:
@@ -133,7 +134,8 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
         else:
             for sample in range(spp):
                 report(run.staged_sample(gsize, lsize, n, y0, sample))
-        cl.enqueue_copy(rt.queue, out[oy:oy + tile_rows].reshape(-1, 4), run.accum, is_blocking=False)
+        run.resolve(n)                  # the pixels' means (stages/resolve.cl), read back as the image's rows
+        cl.enqueue_copy(rt.queue, out[oy:oy + tile_rows].reshape(-1), run.rgb, is_blocking=False)
         if aovs:
             run.trace(gsize, lsize, n, y0, 0, False, run.aov_buf)
             cl.enqueue_copy(rt.queue, aov_out[oy:oy + tile_rows].reshape(-1, layout.AOV_FLOATS), run.aov_buf,
@@ -141,29 +143,16 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
             report(_Finish(rt.queue))
         if sink is not None:
             rt.queue.finish()
-            sink(y0, mean_rgb(out[:tile_rows], spp, adaptive), split_aovs(aov_out, aovs, tile_rows))
+            sink(y0, out[:tile_rows].copy(), split_aovs(aov_out, aovs, tile_rows))   # out: the next tile's
     rt.queue.finish()
     if progress is not None and run.passes < total_passes:
         progress(1.0)                   # adaptive sampling ended early
-    rgb = None if sink is not None else np.ascontiguousarray(mean_rgb(out, spp, adaptive))
+    rgb = None if sink is not None else out
     aov = {} if sink is not None else split_aovs(aov_out, aovs, band)
     stage_s = {name: sum((e.profile.end - e.profile.start) for e in evs) * 1e-9 for name, evs in run.events.items()}
     samples = run.samples if adaptive is not None else width * band * spp
     return Rows(rgb=rgb, aov=aov, tile_rows=tile, tiles=tiles, samples=samples, per_ray=per_ray,
                 ray_buffer_bytes=run.n_max * per_ray, upload_s=upload_s, stage_s=stage_s)
-
-
-def mean_rgb(out, spp, adaptive):
-    """The pixels' means from the accumulators (sum RGB, samples): each pixel's own count
-    with adaptive sampling, else spp for all (the same value, divided the same way). One
-    channel at a time: numpy's division of the (rows, width, 3) view of the four channels
-    took 0.58 ms of a 512x256 frame, the three strided channels 0.19 ms (the same floats)."""
-    acc = out.reshape(-1, 4)
-    rgb = np.empty((acc.shape[0], 3), np.float32)
-    div = np.float32(spp) if adaptive is None else acc[:, 3]
-    for c in range(3):
-        np.divide(acc[:, c], div, out=rgb[:, c])
-    return rgb.reshape(out.shape[:2] + (3,))
 
 
 def split_aovs(aov_out, names, rows):
@@ -208,6 +197,7 @@ class _Run:
             self.surf = cl.Buffer(ctx, mf.READ_WRITE, n_max * layout.SURFACE.itemsize) if staged else None
             self.vis = cl.Buffer(ctx, mf.READ_WRITE, n_max * nl) if not fused else None
             self.accum = cl.Buffer(ctx, mf.READ_WRITE, n_max * 16)
+            self.rgb = cl.Buffer(ctx, mf.WRITE_ONLY, n_max * 12)
             self.aov_buf = cl.Buffer(ctx, mf.WRITE_ONLY, n_max * 4 * layout.AOV_FLOATS) if aovs else None
             self.active = cl.Buffer(ctx, mf.READ_WRITE, n_max * 4) if adaptive is not None else None
             self.sum_y2 = cl.Buffer(ctx, mf.READ_WRITE, n_max * 4) if adaptive is not None else None
@@ -222,7 +212,7 @@ class _Run:
         except cl.MemoryError as e:
             raise DeviceError(f"render: out of device memory for {n_max} rays per tile; pass a smaller "
                               f"tile_pixels ({e})") from None
-        self.events = {name: [] for name in (("render_fused",) if fused else STAGES)}
+        self.events = {name: [] for name in (("render_fused",) if fused else STAGES) + ("resolve",)}
         if fused and aovs:
             self.events.update({name: [] for name in ("raygen", "intersect", "surface")})
         if adaptive is not None:
@@ -238,6 +228,13 @@ class _Run:
         ev = self.k[name](self.rt.queue, gsize, lsize, *args)
         self.events[name].append(ev)
         return ev
+
+    def resolve(self, n):
+        """The tile's n pixels' means into self.rgb: divided by spp, or with adaptive
+        sampling by each pixel's own count."""
+        gsize, lsize = self.rt.launch_size(n, self.local)
+        return self._launch("resolve", gsize, lsize, self.accum, self.rgb, np.uint32(n),
+                            np.float32(self.spp if self.adaptive is None else 0))
 
     def fused(self, gsize, lsize, n, y0, first, count, active=None):
         """``count`` samples from ``first`` of every pixel of the tile at row y0 (with adaptive
@@ -260,8 +257,6 @@ class _Run:
         host decided the other's; with the decision on the device one list measured 0.93 of
         the brick wall's frame and 0.88 of the globe's: tools/ab.py --adaptive.)"""
         q, spp, width, u32 = self.rt.queue, self.spp, self.width, np.uint32
-        cl.enqueue_fill_buffer(q, self.sum_y2, np.float32(0), 0, n * 4)
-        cl.enqueue_fill_buffer(q, self.stamp, np.uint8(0), 0, n)
         count, m, done = np.zeros(1, np.uint32), n, 0
         listed = None                   # the first round: every pixel, no list (the kernels take NULL)
         rounds = round_sizes(spp)
