@@ -8,8 +8,7 @@
  * per-ray records between them in global memory, for timing each step alone (texray
  * bench) and for the AOV pass; `occluded` times any-hit traversal alone;
  * adaptive_mark, _count, _scan and _list (stages/adaptive.cl, with TX_ADAPTIVE) decide which
- * pixels take adaptive sampling's next round; resolve (stages/resolve.cl) turns the sums into
- * the image's means. Both
+ * pixels take adaptive sampling's next round. Both
  * pipelines call the same functions and give the same image, bit for bit.
  *
  * Folders by role, each header including what it needs (include guards):
@@ -57,7 +56,6 @@
 #include "stages/shade.cl"
 #include "stages/fused.cl"
 #include "stages/adaptive.cl"
-#include "stages/resolve.cl"
 #if TX_AVX512
 #pragma clang attribute pop
 #pragma clang attribute pop

@@ -2,7 +2,7 @@
 /* All five stages in one kernel: each work-item takes one pixel of the tile (or a few
  * neighbouring ones: `pixels` below) through `nsamples` samples (raygen -> closest hit ->
  * surface -> shadow rays -> shading) and adds their sum to the pixel's accumulator (its first
- * launch, sample0 0, writes it). Same functions,
+ * launch, sample0 0, writes it), and writes the pixel's mean so far to the image. Same functions,
  * same samples, same image as the staged pipeline, without the per-ray
  * records between stages in global memory; the stage kernels stay for timing
  * each stage alone and for the AOV pass. */
@@ -41,7 +41,7 @@
  * its two work-group launchers, each with the kernel inlined); as a call the body is compiled
  * once, which took 0.1 s (12%) off the mixed bench scene's first launch (texray bench's cold
  * build; the body runs for a whole pixel's samples, so the call costs nothing measurable). */
-TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global const uint* active,
+TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global float* rgb, __global const uint* active,
                                       __global float* sum_y2, uint n, uint y0, uint sample0, uint nsamples,
                                       uint pixels, uint seed, uint jitter, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
                                       TX_LIGHT_PARAMS, float4 ambient, float4 background)
@@ -413,8 +413,11 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
     /* The pixels' first samples (sample0 0) start the sums, later launches add to them: 0 +
      * the sum, as the sums of a buffer zeroed first (the host filled it until 2026-12-08: a
      * command and a pass over the tile's memory per frame, 0.1-0.6 ms of a 512x256 frame). */
-    for (uint q = 0; q < npix; ++q)
-        accum[TX_PIXEL(q)] = (sample0 ? accum[TX_PIXEL(q)] : (float4)(0.0f)) + (float4)(sum[q], (float)nsamples);
+    for (uint q = 0; q < npix; ++q) {
+        float4 a = (sample0 ? accum[TX_PIXEL(q)] : (float4)(0.0f)) + (float4)(sum[q], (float)nsamples);
+        accum[TX_PIXEL(q)] = a;
+        pixel_mean(a, TX_PIXEL(q), rgb);
+    }
 #if TX_ADAPTIVE
     for (uint q = 0; q < npix; ++q)
         sum_y2[TX_PIXEL(q)] = (sample0 ? sum_y2[TX_PIXEL(q)] : 0.0f) + y2[q];
@@ -422,10 +425,11 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #undef TX_PIXEL
 }
 
-__kernel void render_fused(__global float4* accum, __global const uint* active, __global float* sum_y2, uint n,
+__kernel void render_fused(__global float4* accum, __global float* rgb, __global const uint* active,
+                           __global float* sum_y2, uint n,
                            uint y0, uint sample0, uint nsamples, uint pixels, uint seed, uint jitter,
                            TX_GEOM_PARAMS, TX_SURFACE_PARAMS, TX_LIGHT_PARAMS, float4 ambient, float4 background)
 {
-    render_fused_body(get_global_id(0), accum, active, sum_y2, n, y0, sample0, nsamples, pixels, seed, jitter,
+    render_fused_body(get_global_id(0), accum, rgb, active, sum_y2, n, y0, sample0, nsamples, pixels, seed, jitter,
                       TX_GEOM_ARGS, TX_SURFACE_ARGS, TX_LIGHT_ARGS, ambient, background);
 }

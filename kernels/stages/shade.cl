@@ -1,11 +1,12 @@
 #line 2 "stages/shade.cl"
 /* Stage 5: the local illumination of every hit (shading/light.h) by the lights the
- * shadow stage found visible, accumulated per pixel. With TX_ONE_LIGHT the shadow stage
+ * shadow stage found visible, accumulated per pixel, and the pixel's mean so far written to
+ * the image (core/common.h pixel_mean, as the fused kernel does). With TX_ONE_LIGHT the shadow stage
  * lets through at most the sample's own light (stages/shadow.cl), weighed by the light count
  * (light_intensity). */
 
 __kernel void shade(__global const Ray* rays, __global const Surface* surf, __global const uchar* vis,
-                    uint n, __global float4* accum,
+                    uint n, __global float4* accum, __global float* rgb,
                     TX_LIGHT_PARAMS, float4 ambient, float4 background)
 {
     uint gid = get_global_id(0);
@@ -21,5 +22,7 @@ __kernel void shade(__global const Ray* rays, __global const Surface* surf, __gl
                                 light_intensity(vload3(0, lights[i].intensity), nlights));
         }
     }
-    accum[gid] += (float4)(clamp_radiance(c), 1.0f);   /* one work-item per pixel of the tile: no race */
+    float4 a = accum[gid] + (float4)(clamp_radiance(c), 1.0f);   /* one work-item per pixel of the tile: no race */
+    accum[gid] = a;
+    pixel_mean(a, gid, rgb);
 }

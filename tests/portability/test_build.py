@@ -42,7 +42,7 @@ def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
         options = {**compile_options(f), "TX_PACKET": int(which.removeprefix("surface"))}
     prg = any_rt.program(options, extra_options=("-Werror",))
     names = set(prg.get_info(cl.program_info.KERNEL_NAMES).split(";"))
-    assert {"raygen", "intersect", "surface", "shadow", "shade", "render_fused", "occluded", "resolve"} <= names
+    assert {"raygen", "intersect", "surface", "shadow", "shade", "render_fused", "occluded"} <= names
     assert ("occluded_packet" in names) == which.startswith(("packet", "surface"))
     assert ({"adaptive_mark", "adaptive_count", "adaptive_scan", "adaptive_list"} <= names) == (which == "generic")
 

@@ -61,8 +61,8 @@ def test_bench_command_writes_json_report_and_compare(tmp_path, capsys):
     (dev,) = r["devices"].values()
     assert dev["rays"]["primary_mrays_s"]["median"] > 0
     g = dev["scenes"]["globe"]
-    assert g["spp"] == 1 and set(g["stages"]["stage_s"]) == {"raygen", "intersect", "surface", "shadow", "shade", "resolve"}
-    assert set(g["specialized"]["stage_s"]) == {"render_fused", "resolve"} and g["stages_over_fused"] > 0
+    assert g["spp"] == 1 and set(g["stages"]["stage_s"]) == {"raygen", "intersect", "surface", "shadow", "shade"}
+    assert set(g["specialized"]["stage_s"]) == {"render_fused"} and g["stages_over_fused"] > 0
     assert g["specialized"]["features"]["spheres"] and not g["specialized"]["features"]["cylinders"]
     assert g["generic"]["features"]["cylinders"] and g["generic_over_specialized"] > 0
     sweep = dev["sweeps"]["globe"]["series"]["spp"]

@@ -71,7 +71,7 @@ def device_program(cs, device, local_size, samples=0):
 
 
 def per_ray_bytes(cs, fused, aovs, adaptive):
-    """Device bytes per pixel of a tile: the accumulator and the mean (resolve's); the staged pipeline (and the AOV
+    """Device bytes per pixel of a tile: the accumulator and the image's mean; the staged pipeline (and the AOV
     pass) add the per-ray records; adaptive sampling its luminance squares, its list of
     active pixels and the decisions' stamps (_Run.adaptive_tile)."""
     nl = max(len(cs.lights), 1)
@@ -134,7 +134,6 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
         else:
             for sample in range(spp):
                 report(run.staged_sample(gsize, lsize, n, y0, sample))
-        run.resolve(n)                  # the pixels' means (stages/resolve.cl), read back as the image's rows
         cl.enqueue_copy(rt.queue, out[oy:oy + tile_rows].reshape(-1), run.rgb, is_blocking=False)
         if aovs:
             run.trace(gsize, lsize, n, y0, 0, False, run.aov_buf)
@@ -212,7 +211,7 @@ class _Run:
         except cl.MemoryError as e:
             raise DeviceError(f"render: out of device memory for {n_max} rays per tile; pass a smaller "
                               f"tile_pixels ({e})") from None
-        self.events = {name: [] for name in (("render_fused",) if fused else STAGES) + ("resolve",)}
+        self.events = {name: [] for name in (("render_fused",) if fused else STAGES)}
         if fused and aovs:
             self.events.update({name: [] for name in ("raygen", "intersect", "surface")})
         if adaptive is not None:
@@ -229,18 +228,11 @@ class _Run:
         self.events[name].append(ev)
         return ev
 
-    def resolve(self, n):
-        """The tile's n pixels' means into self.rgb: divided by spp, or with adaptive
-        sampling by each pixel's own count."""
-        gsize, lsize = self.rt.launch_size(n, self.local)
-        return self._launch("resolve", gsize, lsize, self.accum, self.rgb, np.uint32(n),
-                            np.float32(self.spp if self.adaptive is None else 0))
-
     def fused(self, gsize, lsize, n, y0, first, count, active=None):
         """``count`` samples from ``first`` of every pixel of the tile at row y0 (with adaptive
         sampling: of the n pixels listed in ``active``, or pixels 0 .. n - 1 for None)."""
         u32, cs = np.uint32, self.cs
-        return self._launch("render_fused", gsize, lsize, self.accum, active,
+        return self._launch("render_fused", gsize, lsize, self.accum, self.rgb, active,
                             self.sum_y2, u32(n), u32(y0), u32(first), u32(count), u32(self.pixels),
                             u32(self.seed), u32(self.jitter), *self.geom, *self.surface_args, *self.light,
                             cs.ambient, cs.background)
@@ -300,5 +292,5 @@ class _Run:
         if len(cs.lights):
             self._launch("shadow", gsize, lsize, self.surf, self.vis, u32(n), u32(self.width), u32(y0), u32(sample),
                          u32(self.spp), u32(self.seed), *self.geom, *self.light)
-        return self._launch("shade", gsize, lsize, self.rays, self.surf, self.vis, u32(n), self.accum, *self.light,
-                            cs.ambient, cs.background)
+        return self._launch("shade", gsize, lsize, self.rays, self.surf, self.vis, u32(n), self.accum, self.rgb,
+                            *self.light, cs.ambient, cs.background)
