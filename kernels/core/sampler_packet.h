@@ -54,41 +54,66 @@ inline void TX_CMJ_T(cmj_divmod_packet)(TX_CU s, uint m, TX_CU* q, TX_CU* r)
     }
 }
 
+/* cmj_permute_packet where l is a power of two (1 included): one round maps [0, l) onto
+ * itself (it ends with i &= w, w = l - 1), so the walk is that round and the result the same
+ * value; l = 1 gives 0 (w = 0). Straight-line code, with no exit test per round. */
+inline TX_CU TX_CMJ_T(cmj_permute_pow2_packet)(TX_CU i, uint l, TX_CU p)
+{
+    uint w = l - 1u;
+    TX_CMJ_ROUND(i, p, w);
+    return (i + p) & w;
+}
+
+/* The body of cmj_sample_packet with the permutation PERM (below). */
+#if TX_ADAPTIVE
+#define TX_CMJ_CELL(PERM) do {                                 /* cmj_cell's order, lane by lane */ \
+        uint n1 = TX_MAX(n, 1u);                                                                    \
+        TX_CU run, col, row, unused;                                                                \
+        TX_CMJ_T(cmj_divmod_packet)(s, cmj_lcm(m, n1), &run, &unused);                             \
+        TX_CMJ_T(cmj_divmod_packet)(s + run, m, &unused, &col);                                    \
+        TX_CMJ_T(cmj_divmod_packet)(s, n1, &unused, &row);                                         \
+        s = PERM(col, m, p * TX_CMJ_SALT_C) + m * PERM(row, n, p * TX_CMJ_SALT_R);                 \
+    } while (0)
+#else
+#define TX_CMJ_CELL(PERM) do { s = PERM(s, N, p * TX_CMJ_SALT_S); } while (0)
+#endif
+#define TX_CMJ_SAMPLE(PERM) do {                                                                    \
+        TX_CMJ_CELL(PERM);                                                                          \
+        TX_CU sd, sm;                                                                               \
+        TX_CMJ_T(cmj_divmod_packet)(s, m, &sd, &sm);                                               \
+        TX_CU sx = PERM(sm, m, px);                                                                 \
+        TX_CU sy = PERM(sd, n, py);                                                                 \
+        TX_CU bx = s, by = s;                                                                       \
+        TX_CMJ_RANDBITS(bx, pjx);                                                                   \
+        TX_CMJ_RANDBITS(by, pjy);                                                                   \
+        TX_CF jx = TX_CMJ_TO_FLOAT(bx) * TX_CMJ_RANDSCALE;                                          \
+        TX_CF jy = TX_CMJ_TO_FLOAT(by) * TX_CMJ_RANDSCALE;                                          \
+        TX_CF fx = (TX_CMJ_TO_FLOAT(sm) + (TX_CMJ_TO_FLOAT(sy) + jx) / (float)n) / (float)m;        \
+        TX_CF fy = (TX_CMJ_TO_FLOAT(sd) + (TX_CMJ_TO_FLOAT(sx) + jy) / (float)m) / (float)n;        \
+        TX_CMJ_STORE(fx, x);                                                                        \
+        TX_CMJ_STORE(fy, y);                                                                        \
+    } while (0)
+
 /* Sample s[lane] of pattern p[lane] (cmj_sample_m's N, m, one per lane: stages/fused.cl's
  * chunks, a pixel's consecutive samples or several pixels') into x[lane], y[lane]
- * (TX_CMJ_N of each). */
+ * (TX_CMJ_N of each). Where N is a power of two (so are m, n and their lcm) every
+ * permutation is one round, and the sample's permutations -- each a chain of dependent
+ * multiplies, latency bound -- are straight-line code the compiler interleaves (cmj_cell's
+ * two with TX_ADAPTIVE, then the column's and the row's), where the walks' exit tests kept
+ * them one after another. (log2 N from the float's exponent, as in cmj_divmod_packet.) */
 inline void TX_CMJ_T(cmj_sample_packet)(TX_CU s, uint N, uint m, TX_CU p, float* x, float* y)
 {
     uint n = N / m;
     TX_CU px = p * TX_CMJ_SALT_X, py = p * TX_CMJ_SALT_Y;
     TX_CU pjx = p * TX_CMJ_SALT_JX, pjy = p * TX_CMJ_SALT_JY;
-#if TX_ADAPTIVE
-    {                                                    /* cmj_cell's order, lane by lane */
-        uint n1 = TX_MAX(n, 1u);
-        TX_CU run, col, row, unused;
-        TX_CMJ_T(cmj_divmod_packet)(s, cmj_lcm(m, n1), &run, &unused);
-        TX_CMJ_T(cmj_divmod_packet)(s + run, m, &unused, &col);
-        TX_CMJ_T(cmj_divmod_packet)(s, n1, &unused, &row);
-        s = TX_CMJ_T(cmj_permute_packet)(col, m, p * TX_CMJ_SALT_C)
-          + m * TX_CMJ_T(cmj_permute_packet)(row, n, p * TX_CMJ_SALT_R);
-    }
-#else
-    s = TX_CMJ_T(cmj_permute_packet)(s, N, p * TX_CMJ_SALT_S);
-#endif
-    TX_CU sd, sm;
-    TX_CMJ_T(cmj_divmod_packet)(s, m, &sd, &sm);
-    TX_CU sx = TX_CMJ_T(cmj_permute_packet)(sm, m, px);
-    TX_CU sy = TX_CMJ_T(cmj_permute_packet)(sd, n, py);
-    TX_CU bx = s, by = s;
-    TX_CMJ_RANDBITS(bx, pjx);
-    TX_CMJ_RANDBITS(by, pjy);
-    TX_CF jx = TX_CMJ_TO_FLOAT(bx) * TX_CMJ_RANDSCALE;
-    TX_CF jy = TX_CMJ_TO_FLOAT(by) * TX_CMJ_RANDSCALE;
-    TX_CF fx = (TX_CMJ_TO_FLOAT(sm) + (TX_CMJ_TO_FLOAT(sy) + jx) / (float)n) / (float)m;
-    TX_CF fy = (TX_CMJ_TO_FLOAT(sd) + (TX_CMJ_TO_FLOAT(sx) + jy) / (float)m) / (float)n;
-    TX_CMJ_STORE(fx, x);
-    TX_CMJ_STORE(fy, y);
+    uint k = (as_uint((float)N) >> 23) - 127u;         /* floor(log2 N) where N < 2^24 */
+    if (N == 1u << k)
+        TX_CMJ_SAMPLE(TX_CMJ_T(cmj_permute_pow2_packet));
+    else
+        TX_CMJ_SAMPLE(TX_CMJ_T(cmj_permute_packet));
 }
+#undef TX_CMJ_SAMPLE
+#undef TX_CMJ_CELL
 
 #undef TX_CMJ_TO_FLOAT
 #undef TX_CMJ_STORE
