@@ -1,15 +1,20 @@
 #line 2 "stages/adaptive.cl"
 /* Adaptive sampling's decision between two rounds, on the device (texray.renderer.frame
- * adaptive_tile): which of a tile's pixels take the next round. Two launches on the queue
- * of the round's fused launches, so the sums never leave the device and the host reads
- * back one count:
+ * adaptive_tile): which of a tile's pixels take the next round. Launches on the queue of the
+ * round's fused launches, so the sums never leave the device, and the next round reads the
+ * list and its length where they are written (the host reads the length back later, for the
+ * sample count):
  *
- *   adaptive_mark: each pixel of the round's list (`active`, n entries: the pixels the
- *     round sampled; NULL in the first round, which samples pixels 0 .. n - 1) stamps itself with `tag` (the round's number, >= 1) where it has not
- *     converged (core/adaptive.h), 0 where it has. Pixels the round did not sample keep
- *     an older stamp (the first round samples and so stamps every pixel), so only
- *     this round's pixels count as unconverged: one that was not sampled had converged,
- *     and so had its neighbours, and it has no new samples.
+ *   the stamps: each pixel of the round's list (`active`, n entries: the pixels the round
+ *     sampled; NULL in the first round, which samples pixels 0 .. n - 1) stamped with `tag`
+ *     (the round's number, >= 1) where it has not converged (core/adaptive.h), 0 where it
+ *     has -- by the fused kernel's launch that ends the round (stages/fused.cl, which has the
+ *     sums at hand), or by adaptive_mark below, the same rule as a kernel of its own (the
+ *     renderer's until 2026-12-08: 0.22 ms of a 512x256 round; tests/kernels/
+ *     test_adaptive_decide.py holds the rule to the float64 one through it). Pixels the
+ *     round did not sample keep an older stamp (the first round samples and so stamps every
+ *     pixel), so only this round's pixels count as unconverged: one that was not sampled had
+ *     converged, and so had its neighbours, and it has no new samples.
  *   adaptive_count, adaptive_scan, adaptive_list: each pixel of the tile (rows x width,
  *     image row row0 at its top) goes on if a pixel of its 3x3 neighbourhood within its
  *     block of block_rows image rows (rows y / block_rows alike) and within the tile

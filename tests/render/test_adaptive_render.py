@@ -55,6 +55,34 @@ def test_a_tile_of_several_blocks_takes_the_samples_of_one_block_at_a_time(scene
     assert np.isfinite(whole.rgb).all() and whole.rgb.std() > 0.01
 
 
+def test_later_rounds_take_every_listed_pixel_once_whatever_their_work_items(scenes_dir, device, monkeypatch):
+    """Rounds after the first read the list's length on the device and loop over it
+    (stages/fused.cl render_fused, frame.LATER_GROUPS work-groups): one work-group, the
+    default and as many as the tile's groups of pixels give the same image bit for bit and the
+    same samples; the samples are the rounds' lists' lengths as the host reads them back
+    (every pixel's first round, then each list's pixels the next round's: a pixel that had
+    converged adds nothing, and a round on an empty list samples nothing)."""
+    from texray.renderer import frame
+    from texray.renderer.adaptive import round_sizes
+    scene = _scene(scenes_dir)
+    ref = tx.render(scene, 40, 48, 32, device=device, adaptive=0.05)
+    assert 40 * 48 * 4 < ref.stats["samples"] < 40 * 48 * 32
+    for groups in (1, 10 ** 6):
+        monkeypatch.setattr(frame, "LATER_GROUPS", groups)
+        img = tx.render(scene, 40, 48, 32, device=device, adaptive=0.05)
+        np.testing.assert_array_equal(img.rgb.view(np.uint32), ref.rgb.view(np.uint32))
+        assert img.stats["samples"] == ref.stats["samples"]
+    # every pixel converged after the first round: no list, no later samples
+    first = round_sizes(32)[0]
+    assert tx.render(scene, 40, 48, 32, device=device, adaptive=1e6).stats["samples"] == 40 * 48 * first
+    # a vanishing threshold: every round takes every pixel but the constant ones (the sky's,
+    # converged at any threshold) and their blocks
+    tiny = tx.render(scene, 40, 48, 32, device=device, adaptive=1e-9)
+    assert ref.stats["samples"] < tiny.stats["samples"] < 40 * 48 * 32
+    monkeypatch.setattr(frame, "LATER_GROUPS", 1)
+    assert tx.render(scene, 40, 48, 32, device=device, adaptive=1e-9).stats["samples"] == tiny.stats["samples"]
+
+
 @pytest.mark.parametrize("value, match", [(0, r"adaptive: expected a number in \(0, inf\)"),
                                           (float("nan"), "adaptive"), ("x", "adaptive")])
 def test_bad_thresholds_are_named(value, match):

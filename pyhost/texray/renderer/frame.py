@@ -149,7 +149,7 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
     rgb = None if sink is not None else out
     aov = {} if sink is not None else split_aovs(aov_out, aovs, band)
     stage_s = {name: sum((e.profile.end - e.profile.start) for e in evs) * 1e-9 for name, evs in run.events.items()}
-    samples = run.samples if adaptive is not None else width * band * spp
+    samples = run.adaptive_samples() if adaptive is not None else width * band * spp
     return Rows(rgb=rgb, aov=aov, tile_rows=tile, tiles=tiles, samples=samples, per_ray=per_ray,
                 ray_buffer_bytes=run.n_max * per_ray, upload_s=upload_s, stage_s=stage_s)
 
@@ -173,6 +173,12 @@ class _Finish:
         self.queue.finish()
 
 
+# Work-groups of adaptive sampling's later rounds, whose work-items loop over the list that the
+# device wrote (stages/fused.cl render_fused): idle ones cost PoCL 0.45 us each, and 64 keep
+# both threads busy on a list of any length (the image does not depend on it).
+LATER_GROUPS = 64
+
+
 class _Run:
     """One render's device state: the uploaded scene, the per-tile buffers, the kernels and
     their profiling events; launches the fused kernel or one sample of the stages."""
@@ -181,6 +187,7 @@ class _Run:
                  uploaded):
         self.rt, self.cs, self.local, self.adaptive = rt, cs, local, adaptive
         self.samples = 0
+        self.pending = []       # adaptive_tile's lists' lengths (read back) and their rounds' samples
         self.pixels = 1         # the fused kernel's pixels per work-item (render_rows sets it)
         self.width, self.height, self.spp, self.seed, self.jitter = width, height, spp, seed, jitter
         self.n_max = rows * width
@@ -215,8 +222,7 @@ class _Run:
         if fused and aovs:
             self.events.update({name: [] for name in ("raygen", "intersect", "surface")})
         if adaptive is not None:
-            self.events.update({name: [] for name in ("adaptive_mark", "adaptive_count", "adaptive_scan",
-                                                      "adaptive_list")})
+            self.events.update({name: [] for name in ("adaptive_count", "adaptive_scan", "adaptive_list")})
         self.k = {name: rt.kernel(prg, name) for name in self.events}     # only the kernels this render runs
         u32 = np.uint32
         self.geom, self.light = self.up.geom, self.up.light
@@ -228,12 +234,15 @@ class _Run:
         self.events[name].append(ev)
         return ev
 
-    def fused(self, gsize, lsize, n, y0, first, count, active=None):
+    def fused(self, gsize, lsize, n, y0, first, count, active=None, listed_n=None, tag=0):
         """``count`` samples from ``first`` of every pixel of the tile at row y0 (with adaptive
-        sampling: of the n pixels listed in ``active``, or pixels 0 .. n - 1 for None)."""
+        sampling: of the n pixels listed in ``active``, or pixels 0 .. n - 1 for None; where
+        ``listed_n`` is given, the list's length is read from it on the device, not n; ``tag``
+        > 0: this launch ends round ``tag``, whose pixels it stamps for the decision)."""
         u32, cs = np.uint32, self.cs
-        return self._launch("render_fused", gsize, lsize, self.accum, self.rgb, active,
-                            self.sum_y2, u32(n), u32(y0), u32(first), u32(count), u32(self.pixels),
+        return self._launch("render_fused", gsize, lsize, self.accum, self.rgb, active, listed_n,
+                            self.sum_y2, self.stamp, u32(tag), np.float32(self.adaptive or 0), np.float32(FLOOR),
+                            u32(n), u32(y0), u32(first), u32(count), u32(self.pixels),
                             u32(self.seed), u32(self.jitter), *self.geom, *self.surface_args, *self.light,
                             cs.ambient, cs.background)
 
@@ -241,40 +250,56 @@ class _Run:
         """Sample the tile's n pixels in rounds, each round only those still active
         (texray.renderer.adaptive), up to spp samples.
 
-        Between rounds the device decides which pixels go on (stages/adaptive.cl: the
-        stopping rule, the dilation within blocks and the list of those pixels, written where
-        the next round reads it), and the host reads back their count, to size the next
-        launch. (Until 2026-12-07 the host decided, in numpy on the read-back sums, and so a
-        tile ran as two halves on two queues, the device rendering one half's round while the
-        host decided the other's; with the decision on the device one list measured 0.93 of
-        the brick wall's frame and 0.88 of the globe's: tools/ab.py --adaptive.)"""
+        Between rounds the device decides which pixels go on: the launch that ends a round
+        stamps its pixels by the stopping rule, and stages/adaptive.cl dilates the stamps within
+        blocks and writes the list of those pixels and its length where the next round reads
+        them. The host does not wait for the decision: a later round's launches take the
+        list's length on the device (render_fused's listed_n, a fixed number of work-items
+        looping over the list), and the host reads each length back while the device renders
+        the next round, to count the samples and to stop enqueuing rounds after one with an
+        empty list. (Until 2026-12-07 the host decided, in numpy on the read-back sums, and a
+        tile ran as two halves on two queues; until 2026-12-08 it waited for each length, and
+        the stamps were a kernel of their own, adaptive_mark: tools/ab.py --adaptive, brick wall
+        512x256 <= 8 spp and the globe 512x384 <= 32 spp, README "Adaptive sampling".)"""
         q, spp, width, u32 = self.rt.queue, self.spp, self.width, np.uint32
-        count, m, done = np.zeros(1, np.uint32), n, 0
-        listed = None                   # the first round: every pixel, no list (the kernels take NULL)
+        done, listed, reads = 0, None, []
         rounds = round_sizes(spp)
+        # a later round's work-items: at most LATER_GROUPS work-groups (the list is at most the
+        # tile), each work-item looping over groups of pixels
+        later = self.rt.launch_size(min(-(-n // self.pixels), LATER_GROUPS * (self.local or 64)), self.local)
         for tag, samples in enumerate(rounds, 1):
-            if tag > 1:
-                read.wait()
-                m = int(count[0])
-                if not m:
-                    break
-            gsize, lsize = self.rt.launch_size(-(-m // self.pixels), self.local)
+            # no round after one without pixels: the length before last, if it is back (a wait
+            # would hold the host until the queue drained: PoCL finishes the queue in a wait)
+            if tag > 2 and reads[-2][0].command_execution_status == cl.command_execution_status.COMPLETE \
+                    and not int(reads[-2][1][0]):
+                break
+            gsize, lsize = self.rt.launch_size(-(-n // self.pixels), self.local) if tag == 1 else later
+            decide = done + samples < spp
             for first in range(done, done + samples, per_launch):
-                report(self.fused(gsize, lsize, m, y0, first, min(per_launch, done + samples - first),
-                                  active=listed))
-            self.samples += m * samples
+                count = min(per_launch, done + samples - first)
+                last = first + count == done + samples
+                report(self.fused(gsize, lsize, n, y0, first, count, active=listed,
+                                  listed_n=None if tag == 1 else self.count, tag=tag if decide and last else 0))
             done += samples
-            if done < spp:              # the decision for the next round: round `tag`'s stamps
-                gsize, lsize = self.rt.launch_size(m, self.local)
-                self._launch("adaptive_mark", gsize, lsize, self.accum, self.sum_y2, listed, u32(m), self.stamp,
-                             u32(tag), np.float32(self.adaptive), np.float32(FLOOR))
+            if decide:                  # the decision for the next round: round `tag`'s stamps
                 gsize, lsize = self.rt.launch_size(rows, self.local)
                 rows_args = (self.stamp, u32(tag), u32(rows), u32(width), u32(y0), u32(BLOCK_ROWS))
                 self._launch("adaptive_count", gsize, lsize, *rows_args, self.row_count)
                 self._launch("adaptive_scan", (1,), None, self.row_count, u32(rows), self.count)
                 self._launch("adaptive_list", gsize, lsize, *rows_args, self.row_count, self.active)
-                read = cl.enqueue_copy(q, count, self.count, is_blocking=False)
+                length = np.zeros(1, np.uint32)
+                reads.append((cl.enqueue_copy(q, length, self.count, is_blocking=False), length))
                 listed = self.active
+        # the samples: every pixel's first round, then each list's pixels the next round's (the
+        # lengths are read once the queue is finished: adaptive_samples)
+        self.samples += n * rounds[0]
+        # (the copies' events kept: pyopencl waits for a dropped one's copy, which holds the array)
+        self.pending += [(ev, length, s) for (ev, length), s in zip(reads, rounds[1:])]
+
+    def adaptive_samples(self):
+        """The samples adaptive_tile's later rounds took, from the lists' lengths (after the
+        queue is finished)."""
+        return self.samples + sum(int(length[0]) * s for _, length, s in self.pending)
 
     def trace(self, gsize, lsize, n, y0, sample, jit, aov):
         """raygen -> intersect -> surface of one sample of the tile (``aov``: the AOV buffer or None)."""
