@@ -33,4 +33,14 @@ inline int adaptive_open(float4 acc, float sum_y2, float threshold, float floor_
     return var / n > bound * bound;
 }
 
+/* for (g = ...) over the groups 0 .. count - 1 of a list whose length only the device knows
+ * (adaptive sampling's later rounds: stages/fused.cl render_fused, stages/adaptive.cl
+ * adaptive_mark), launched as a fixed number of work-items: work-group w's item l takes
+ * groups l W + w, + the global size, ... (W work-groups), so that any count is shared by
+ * every work-group -- PoCL hands work-groups to its threads in contiguous runs, and groups in
+ * launch order left the last work-groups idle (a round took twice as long). */
+#define TX_FOR_LISTED(g, count) \
+    for (uint g = get_local_id(0) * (get_global_size(0) / get_local_size(0)) + get_group_id(0), \
+         g##_end_ = (count); g < g##_end_; g += get_global_size(0))
+
 #endif

@@ -5,16 +5,16 @@
  * list and its length where they are written (the host reads the length back later, for the
  * sample count):
  *
- *   the stamps: each pixel of the round's list (`active`, n entries: the pixels the round
- *     sampled; NULL in the first round, which samples pixels 0 .. n - 1) stamped with `tag`
- *     (the round's number, >= 1) where it has not converged (core/adaptive.h), 0 where it
- *     has -- by the fused kernel's launch that ends the round (stages/fused.cl, which has the
- *     sums at hand), or by adaptive_mark below, the same rule as a kernel of its own (the
- *     renderer's until 2026-12-08: 0.22 ms of a 512x256 round; tests/kernels/
- *     test_adaptive_decide.py holds the rule to the float64 one through it). Pixels the
+ *   adaptive_mark: each pixel of the round's list (`active`, n entries, or as many as
+ *     *listed_n where the device wrote the length; the pixels the round sampled; NULL in the
+ *     first round, which samples pixels 0 .. n - 1) stamps itself with `tag` (the round's
+ *     number, >= 1) where it has not converged (core/adaptive.h), 0 where it has. Pixels the
  *     round did not sample keep an older stamp (the first round samples and so stamps every
  *     pixel), so only this round's pixels count as unconverged: one that was not sampled had
- *     converged, and so had its neighbours, and it has no new samples.
+ *     converged, and so had its neighbours, and it has no new samples. (Folded into the fused
+ *     kernel's last launch of a round, the stamps cost that launch 0.3-0.9 ms on the brick
+ *     wall's 512x256 tile against this kernel's 0.22: three dependent divisions per pixel at
+ *     the end of a work-item's run, which the work-items of a kernel of their own overlap.)
  *   adaptive_count, adaptive_scan, adaptive_list: each pixel of the tile (rows x width,
  *     image row row0 at its top) goes on if a pixel of its 3x3 neighbourhood within its
  *     block of block_rows image rows (rows y / block_rows alike) and within the tile
@@ -30,14 +30,26 @@
  *     a third of that, with no division per pixel.) */
 #if TX_ADAPTIVE
 
-__kernel void adaptive_mark(__global const float4* accum, __global const float* sum_y2,
-                            __global const uint* active, uint n, __global uchar* stamp, uint tag,
-                            float threshold, float floor_y)
+inline void adaptive_mark_one(__global const float4* accum, __global const float* sum_y2,
+                              __global const uint* active, uint i, __global uchar* stamp, uint tag,
+                              float threshold, float floor_y)
 {
-    uint gid = get_global_id(0);
-    if (gid >= n) return;
-    uint p = active ? active[gid] : gid;
+    uint p = active ? active[i] : i;
     stamp[p] = adaptive_open(accum[p], sum_y2[p], threshold, floor_y) ? (uchar)tag : (uchar)0;
+}
+
+__kernel void adaptive_mark(__global const float4* accum, __global const float* sum_y2,
+                            __global const uint* active, __global const uint* listed_n, uint n,
+                            __global uchar* stamp, uint tag, float threshold, float floor_y)
+{
+    if (listed_n) {
+        TX_FOR_LISTED(i, *listed_n)
+            adaptive_mark_one(accum, sum_y2, active, i, stamp, tag, threshold, floor_y);
+        return;
+    }
+    uint gid = get_global_id(0);
+    if (gid < n)
+        adaptive_mark_one(accum, sum_y2, active, gid, stamp, tag, threshold, floor_y);
 }
 
 /* Row r's pixels that go on (a 3x3 neighbourhood within the block carries the tag t): their

@@ -12,11 +12,7 @@
  * NULL in the first round: pixels 0 .. n - 1)
  * and each also adds the squares of its samples' luminance to sum_y2, for the variance
  * estimate; otherwise work-item gid takes pixels gid * pixels .. of the tile and both are
- * NULL. The launch that ends a round after which the device decides (tag > 0, the round's
- * number) stamps each of its pixels with tag where it has not converged, 0 where it has
- * (core/adaptive.h adaptive_open, the rule adaptive_mark applies alone: the decision's first
- * step, folded into the launch that has the sums at hand; stages/adaptive.cl takes it from
- * there). A later round's launches read the list's length where the decision left it
+ * NULL. A later round's launches read the list's length where the decision before left it
  * (listed_n, not n): the host does not wait for it (render_fused below).
  *
  * With TX_ONE_LIGHT (render(light_sampling="one")) each sample traces one shadow ray, toward
@@ -47,8 +43,7 @@
  * once, which took 0.1 s (12%) off the mixed bench scene's first launch (texray bench's cold
  * build; the body runs for a whole pixel's samples, so the call costs nothing measurable). */
 TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global float* rgb, __global const uint* active,
-                                      __global float* sum_y2, __global uchar* stamp, uint tag, float threshold,
-                                      float floor_y, uint n, uint y0, uint sample0, uint nsamples,
+                                      __global float* sum_y2, uint n, uint y0, uint sample0, uint nsamples,
                                       uint pixels, uint seed, uint jitter, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
                                       TX_LIGHT_PARAMS, float4 ambient, float4 background)
 {
@@ -425,47 +420,34 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
         pixel_mean(a, TX_PIXEL(q), rgb);
     }
 #if TX_ADAPTIVE
-    for (uint q = 0; q < npix; ++q) {
-        float4 a = accum[TX_PIXEL(q)];
-        float y2n = (sample0 ? sum_y2[TX_PIXEL(q)] : 0.0f) + y2[q];
-        sum_y2[TX_PIXEL(q)] = y2n;
-        if (tag)
-            stamp[TX_PIXEL(q)] = adaptive_open(a, y2n, threshold, floor_y) ? (uchar)tag : (uchar)0;
-    }
+    for (uint q = 0; q < npix; ++q)
+        sum_y2[TX_PIXEL(q)] = (sample0 ? sum_y2[TX_PIXEL(q)] : 0.0f) + y2[q];
 #endif
 #undef TX_PIXEL
 }
 
 /* With adaptive sampling's later rounds (listed_n not NULL: the length of the list `active`,
  * which the decision before wrote on the device) the host launches a fixed number of
- * work-items, without waiting for that length, and each takes groups of `pixels` list entries
- * a global size apart: every group as one work-item of a launch sized to the list would (the
- * same samples, in the same packets), and no round trip to the host
- * between rounds (0.35 ms of the brick wall's 14 ms adaptive frame; a launch of a work-item
- * per group of the whole tile, most of them idle, cost 0.23 ms on its own). */
+ * work-items without waiting for that length, and each takes groups of `pixels` list entries
+ * (TX_FOR_LISTED, stages/adaptive.cl): every group as one work-item of a launch sized to the
+ * list would (the same samples, in the same packets), and no round trip to the host between
+ * rounds (0.35 ms from the list's end to the next round's start on the brick wall's 14 ms
+ * adaptive frame; a launch of a work-item per group of the whole tile, most of them idle, cost
+ * 0.23 ms on its own). */
 __kernel void render_fused(__global float4* accum, __global float* rgb, __global const uint* active,
-                           __global const uint* listed_n, __global float* sum_y2, __global uchar* stamp, uint tag,
-                           float threshold, float floor_y, uint n,
+                           __global const uint* listed_n, __global float* sum_y2, uint n,
                            uint y0, uint sample0, uint nsamples, uint pixels, uint seed, uint jitter,
                            TX_GEOM_PARAMS, TX_SURFACE_PARAMS, TX_LIGHT_PARAMS, float4 ambient, float4 background)
 {
 #if TX_ADAPTIVE
     if (listed_n) {
         uint m = *listed_n, p = clamp(pixels, 1u, (uint)TX_PIX_MAX);
-        uint groups = m / p + (m % p != 0u);
-        /* work-group w's local item l starts at group l W + w (W work-groups): any length is
-         * shared evenly between the work-groups, which PoCL hands to its threads in contiguous
-         * runs (groups taken in launch order left the last work-groups idle and the round took
-         * twice as long) */
-        uint size = get_global_size(0), nwg = size / get_local_size(0);
-        for (uint g = get_local_id(0) * nwg + get_group_id(0); g < groups; g += size)
-            render_fused_body(g, accum, rgb, active, sum_y2, stamp, tag, threshold, floor_y, m, y0, sample0,
-                              nsamples, pixels, seed, jitter, TX_GEOM_ARGS, TX_SURFACE_ARGS, TX_LIGHT_ARGS, ambient,
-                              background);
+        TX_FOR_LISTED(g, m / p + (m % p != 0u))
+            render_fused_body(g, accum, rgb, active, sum_y2, m, y0, sample0, nsamples, pixels, seed, jitter,
+                              TX_GEOM_ARGS, TX_SURFACE_ARGS, TX_LIGHT_ARGS, ambient, background);
         return;
     }
 #endif
-    render_fused_body(get_global_id(0), accum, rgb, active, sum_y2, stamp, tag, threshold, floor_y, n, y0, sample0,
-                      nsamples, pixels, seed, jitter, TX_GEOM_ARGS, TX_SURFACE_ARGS, TX_LIGHT_ARGS, ambient,
-                      background);
+    render_fused_body(get_global_id(0), accum, rgb, active, sum_y2, n, y0, sample0, nsamples, pixels, seed, jitter,
+                      TX_GEOM_ARGS, TX_SURFACE_ARGS, TX_LIGHT_ARGS, ambient, background);
 }

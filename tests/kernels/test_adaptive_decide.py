@@ -11,10 +11,12 @@ from texray.device.features import Features, compile_options
 from texray.renderer.adaptive import BLOCK_ROWS, FLOOR
 
 
-def _decide(rt, acc, y2, threshold, rows, width, row0=0, listed=None, stamps=None, tag=1):
+def _decide(rt, acc, y2, threshold, rows, width, row0=0, listed=None, stamps=None, tag=1, device_length=False):
     """The tile indices that adaptive_count, _scan and _list write after adaptive_mark stamped the
     ``listed`` pixels (default: all, as a first round, with no list) of a tile of rows x width
-    pixels from image row ``row0``, starting from ``stamps`` (default zeros); and the stamps."""
+    pixels from image row ``row0``, starting from ``stamps`` (default zeros); and the stamps.
+    ``device_length``: the list's length given as a buffer (a later round's launch: a fixed
+    number of work-items looping over the list, core/adaptive.h TX_FOR_LISTED)."""
     prg = rt.program(compile_options(Features(adaptive=True)))
     mark, cnt, scan, lst = (cl.Kernel(prg, k) for k in ("adaptive_mark", "adaptive_count", "adaptive_scan",
                                                          "adaptive_list"))
@@ -32,9 +34,13 @@ def _decide(rt, acc, y2, threshold, rows, width, row0=0, listed=None, stamps=Non
     count = np.array([7], np.uint32)
     cnt_b = cl.Buffer(ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=count)
     if len(listed):
-        mark(q, (len(listed),), None, acc_b, y2_b, None if first_round else act_b, u(len(listed)), st_b, u(tag),
-             np.float32(threshold),
-             np.float32(FLOOR))
+        if first_round or not device_length:
+            mark(q, (len(listed),), None, acc_b, y2_b, None if first_round else act_b, None, u(len(listed)), st_b,
+                 u(tag), np.float32(threshold), np.float32(FLOOR))
+        else:                               # a later round: the list's length on the device, 3 work-groups
+            len_b = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.array([len(listed)], np.uint32))
+            mark(q, (3 * 8,), (8,), acc_b, y2_b, act_b, len_b, u(10 ** 6), st_b, u(tag), np.float32(threshold),
+                 np.float32(FLOOR))
     rows_b = cl.Buffer(ctx, mf.READ_WRITE, 4 * rows)
     args = (st_b, u(tag), u(rows), u(width), u(row0), u(BLOCK_ROWS))
     cnt(q, (rows,), None, *args, rows_b)
@@ -198,6 +204,10 @@ def _list_case(rt, rows, width, row0):
     acc[listed[len(listed) // 2]], y2[listed[len(listed) // 2]] = (9, 0, 0, 4), 40     # one surely noisy
     stamps = rng.choice([0, 1, 2], npix).astype(np.uint8)                    # older rounds' stamps: tag 3 now
     active, st = _decide(rt, acc, y2, threshold, rows, width, row0=row0, listed=listed, stamps=stamps, tag=3)
+    looped = _decide(rt, acc, y2, threshold, rows, width, row0=row0, listed=listed, stamps=stamps, tag=3,
+                     device_length=True)
+    np.testing.assert_array_equal(looped[0], active)
+    np.testing.assert_array_equal(looped[1], st)
     mean, se = ref.adaptive_standard_error(acc[:, :3], y2, acc[:, 3])
     bound = threshold * np.maximum(mean, FLOOR)
     assert np.all(np.abs(se - bound)[listed] > 1e-4 * bound[listed])        # no pixel on the edge of the rule

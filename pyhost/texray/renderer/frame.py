@@ -174,8 +174,9 @@ class _Finish:
 
 
 # Work-groups of adaptive sampling's later rounds, whose work-items loop over the list that the
-# device wrote (stages/fused.cl render_fused): idle ones cost PoCL 0.45 us each, and 64 keep
-# both threads busy on a list of any length (the image does not depend on it).
+# device wrote (stages/fused.cl render_fused, stages/adaptive.cl adaptive_mark: core/adaptive.h
+# TX_FOR_LISTED): idle ones cost PoCL 0.45 us each, and 64 keep both threads busy on a list of
+# any length (the image does not depend on it).
 LATER_GROUPS = 64
 
 
@@ -222,7 +223,8 @@ class _Run:
         if fused and aovs:
             self.events.update({name: [] for name in ("raygen", "intersect", "surface")})
         if adaptive is not None:
-            self.events.update({name: [] for name in ("adaptive_count", "adaptive_scan", "adaptive_list")})
+            self.events.update({name: [] for name in ("adaptive_mark", "adaptive_count", "adaptive_scan",
+                                                      "adaptive_list")})
         self.k = {name: rt.kernel(prg, name) for name in self.events}     # only the kernels this render runs
         u32 = np.uint32
         self.geom, self.light = self.up.geom, self.up.light
@@ -234,14 +236,12 @@ class _Run:
         self.events[name].append(ev)
         return ev
 
-    def fused(self, gsize, lsize, n, y0, first, count, active=None, listed_n=None, tag=0):
+    def fused(self, gsize, lsize, n, y0, first, count, active=None, listed_n=None):
         """``count`` samples from ``first`` of every pixel of the tile at row y0 (with adaptive
         sampling: of the n pixels listed in ``active``, or pixels 0 .. n - 1 for None; where
-        ``listed_n`` is given, the list's length is read from it on the device, not n; ``tag``
-        > 0: this launch ends round ``tag``, whose pixels it stamps for the decision)."""
+        ``listed_n`` is given, the list's length is read from it on the device, not n)."""
         u32, cs = np.uint32, self.cs
-        return self._launch("render_fused", gsize, lsize, self.accum, self.rgb, active, listed_n,
-                            self.sum_y2, self.stamp, u32(tag), np.float32(self.adaptive or 0), np.float32(FLOOR),
+        return self._launch("render_fused", gsize, lsize, self.accum, self.rgb, active, listed_n, self.sum_y2,
                             u32(n), u32(y0), u32(first), u32(count), u32(self.pixels),
                             u32(self.seed), u32(self.jitter), *self.geom, *self.surface_args, *self.light,
                             cs.ambient, cs.background)
@@ -250,17 +250,15 @@ class _Run:
         """Sample the tile's n pixels in rounds, each round only those still active
         (texray.renderer.adaptive), up to spp samples.
 
-        Between rounds the device decides which pixels go on: the launch that ends a round
-        stamps its pixels by the stopping rule, and stages/adaptive.cl dilates the stamps within
-        blocks and writes the list of those pixels and its length where the next round reads
-        them. The host does not wait for the decision: a later round's launches take the
-        list's length on the device (render_fused's listed_n, a fixed number of work-items
-        looping over the list), and the host reads each length back while the device renders
-        the next round, to count the samples and to stop enqueuing rounds after one with an
-        empty list. (Until 2026-12-07 the host decided, in numpy on the read-back sums, and a
-        tile ran as two halves on two queues; until 2026-12-08 it waited for each length, and
-        the stamps were a kernel of their own, adaptive_mark: tools/ab.py --adaptive, brick wall
-        512x256 <= 8 spp and the globe 512x384 <= 32 spp, README "Adaptive sampling".)"""
+        Between rounds the device decides which pixels go on (stages/adaptive.cl: the stopping
+        rule, the dilation within blocks, the list of those pixels and its length, written where
+        the next round reads them). The host does not wait for the decision: a later round's
+        launches take the list's length on the device (render_fused's and adaptive_mark's
+        listed_n, a fixed number of work-items looping over the list), and the host reads each
+        length back while the device renders, to count the samples and to stop enqueuing
+        rounds after one with an empty list. (Until 2026-12-07 the host decided, in numpy on
+        the read-back sums, and a tile ran as two halves on two queues; until 2026-12-08 it
+        waited for each length to size the next launch: README "Adaptive sampling".)"""
         q, spp, width, u32 = self.rt.queue, self.spp, self.width, np.uint32
         done, listed, reads = 0, None, []
         rounds = round_sizes(spp)
@@ -268,20 +266,22 @@ class _Run:
         # tile), each work-item looping over groups of pixels
         later = self.rt.launch_size(min(-(-n // self.pixels), LATER_GROUPS * (self.local or 64)), self.local)
         for tag, samples in enumerate(rounds, 1):
-            # no round after one without pixels: the length before last, if it is back (a wait
-            # would hold the host until the queue drained: PoCL finishes the queue in a wait)
+            # no round after one without pixels: the length before last, if it is back (waiting
+            # for it held the host until PoCL's queue drained, the device idle meanwhile)
             if tag > 2 and reads[-2][0].command_execution_status == cl.command_execution_status.COMPLETE \
                     and not int(reads[-2][1][0]):
                 break
             gsize, lsize = self.rt.launch_size(-(-n // self.pixels), self.local) if tag == 1 else later
             decide = done + samples < spp
+            listed_n = None if tag == 1 else self.count
             for first in range(done, done + samples, per_launch):
-                count = min(per_launch, done + samples - first)
-                last = first + count == done + samples
-                report(self.fused(gsize, lsize, n, y0, first, count, active=listed,
-                                  listed_n=None if tag == 1 else self.count, tag=tag if decide and last else 0))
+                report(self.fused(gsize, lsize, n, y0, first, min(per_launch, done + samples - first), active=listed,
+                                  listed_n=listed_n))
             done += samples
             if decide:                  # the decision for the next round: round `tag`'s stamps
+                mg, ml = self.rt.launch_size(n, self.local) if tag == 1 else later
+                self._launch("adaptive_mark", mg, ml, self.accum, self.sum_y2, listed, listed_n, u32(n), self.stamp,
+                             u32(tag), np.float32(self.adaptive), np.float32(FLOOR))
                 gsize, lsize = self.rt.launch_size(rows, self.local)
                 rows_args = (self.stamp, u32(tag), u32(rows), u32(width), u32(y0), u32(BLOCK_ROWS))
                 self._launch("adaptive_count", gsize, lsize, *rows_args, self.row_count)
