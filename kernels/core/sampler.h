@@ -27,6 +27,11 @@
         i &= (w);             i ^= i >> 5;                  \
     } while (0)
 
+/* floor(log2 m) for m >= 1, from the float's exponent: exact below 2^24 (above, m rounds, and
+ * a caller's test m == 1u << k then holds only for a power of two, as it should). Not
+ * (m & (m - 1)) == 0, which LLVM turns into llvm.ctpop: Oclgrind 21.10 cannot run it. */
+inline uint cmj_log2(uint m) { return (as_uint((float)m) >> 23) - 127u; }
+
 /* The mask w = 2^k - 1 >= l - 1 of cmj_permute (l >= 2). */
 inline uint cmj_mask(uint l)
 {

@@ -40,11 +40,10 @@ inline TX_CU TX_CMJ_T(cmj_permute_packet)(TX_CU i, uint l, TX_CU p)
 }
 
 /* s / m and s % m lane by lane; a power of two m (every power-of-two N) as a shift and a
- * mask, the same values without a division per lane. (log2 m from the float's exponent, and
- * no (m & (m - 1)) == 0, which LLVM turns into llvm.ctpop: Oclgrind 21.10 cannot run it.) */
+ * mask, the same values without a division per lane (core/sampler.h cmj_log2). */
 inline void TX_CMJ_T(cmj_divmod_packet)(TX_CU s, uint m, TX_CU* q, TX_CU* r)
 {
-    uint k = (as_uint((float)m) >> 23) - 127u;         /* floor(log2 m): m <= 65535 is exact in float */
+    uint k = cmj_log2(m);
     if (m == 1u << k) {
         *q = s >> k;
         *r = s & (m - 1u);
@@ -100,14 +99,13 @@ inline TX_CU TX_CMJ_T(cmj_permute_pow2_packet)(TX_CU i, uint l, TX_CU p)
  * permutation is one round, and the sample's permutations -- each a chain of dependent
  * multiplies, latency bound -- are straight-line code the compiler interleaves (cmj_cell's
  * two with TX_ADAPTIVE, then the column's and the row's), where the walks' exit tests kept
- * them one after another. (log2 N from the float's exponent, as in cmj_divmod_packet.) */
+ * them one after another. */
 inline void TX_CMJ_T(cmj_sample_packet)(TX_CU s, uint N, uint m, TX_CU p, float* x, float* y)
 {
     uint n = N / m;
     TX_CU px = p * TX_CMJ_SALT_X, py = p * TX_CMJ_SALT_Y;
     TX_CU pjx = p * TX_CMJ_SALT_JX, pjy = p * TX_CMJ_SALT_JY;
-    uint k = (as_uint((float)N) >> 23) - 127u;         /* floor(log2 N) where N < 2^24 */
-    if (N == 1u << k)
+    if (N == 1u << cmj_log2(N))
         TX_CMJ_SAMPLE(TX_CMJ_T(cmj_permute_pow2_packet));
     else
         TX_CMJ_SAMPLE(TX_CMJ_T(cmj_permute_packet));

@@ -442,7 +442,7 @@ __kernel void render_fused(__global float4* accum, __global float* rgb, __global
 #if TX_ADAPTIVE
     if (listed_n) {
         uint m = *listed_n, p = clamp(pixels, 1u, (uint)TX_PIX_MAX);
-        TX_FOR_LISTED(g, m / p + (m % p != 0u))
+        TX_FOR_LISTED(g, (m + (p - 1u)) / p)
             render_fused_body(g, accum, rgb, active, sum_y2, m, y0, sample0, nsamples, pixels, seed, jitter,
                               TX_GEOM_ARGS, TX_SURFACE_ARGS, TX_LIGHT_ARGS, ambient, background);
         return;

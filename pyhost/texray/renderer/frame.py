@@ -71,9 +71,9 @@ def device_program(cs, device, local_size, samples=0):
 
 
 def per_ray_bytes(cs, fused, aovs, adaptive):
-    """Device bytes per pixel of a tile: the accumulator and the image's mean; the staged pipeline (and the AOV
-    pass) add the per-ray records; adaptive sampling its luminance squares, its list of
-    active pixels and the decisions' stamps (_Run.adaptive_tile)."""
+    """Device bytes per pixel of a tile: the accumulator and the image's mean; the staged
+    pipeline (and the AOV pass) add the per-ray records; adaptive sampling its luminance
+    squares, its list of active pixels and the decisions' stamps (_Run.adaptive_tile)."""
     nl = max(len(cs.lights), 1)
     return (16 + 12 + (0 if fused and not aovs else RAY_BYTES - 16 + nl) + (4 * layout.AOV_FLOATS if aovs else 0)
             + (9 if adaptive is not None else 0))
@@ -127,7 +127,7 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
         if not fused:                   # the shade stage adds to the sums; the fused kernel starts them
             cl.enqueue_fill_buffer(rt.queue, run.accum, np.float32(0), 0, n * 16)
         if adaptive is not None:
-            run.adaptive_tile(n, y0, tile_rows, per_launch, report)
+            run.adaptive_tile(n, y0, tile_rows, per_launch, (fsize, flsize), report)
         elif fused:
             for first in range(0, spp, per_launch):
                 report(run.fused(fsize, flsize, n, y0, first, min(per_launch, spp - first)))
@@ -246,9 +246,10 @@ class _Run:
                             u32(self.seed), u32(self.jitter), *self.geom, *self.surface_args, *self.light,
                             cs.ambient, cs.background)
 
-    def adaptive_tile(self, n, y0, rows, per_launch, report):
+    def adaptive_tile(self, n, y0, rows, per_launch, first_size, report):
         """Sample the tile's n pixels in rounds, each round only those still active
-        (texray.renderer.adaptive), up to spp samples.
+        (texray.renderer.adaptive), up to spp samples; ``first_size``: the first round's (global,
+        local) launch size, render_rows's for every pixel of the tile.
 
         Between rounds the device decides which pixels go on (stages/adaptive.cl: the stopping
         rule, the dilation within blocks, the list of those pixels and its length, written where
@@ -271,7 +272,7 @@ class _Run:
             if tag > 2 and reads[-2][0].command_execution_status == cl.command_execution_status.COMPLETE \
                     and not int(reads[-2][1][0]):
                 break
-            gsize, lsize = self.rt.launch_size(-(-n // self.pixels), self.local) if tag == 1 else later
+            gsize, lsize = first_size if tag == 1 else later
             decide = done + samples < spp
             listed_n = None if tag == 1 else self.count
             for first in range(done, done + samples, per_launch):
