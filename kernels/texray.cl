@@ -49,11 +49,13 @@
 #include "shading/light_packet.h"
 #include "shading/surface_packet.h"
 #endif
+#if TX_STAGES
 #include "stages/raygen.cl"
 #include "stages/intersect.cl"
 #include "stages/surface.cl"
 #include "stages/shadow.cl"
 #include "stages/shade.cl"
+#endif
 #include "stages/fused.cl"
 #include "stages/adaptive.cl"
 #if TX_AVX512

@@ -43,7 +43,7 @@
 
 typedef struct { float4 lo, hi; } BuildBox;
 
-inline BuildBox build_box_empty(void)
+static inline BuildBox build_box_empty(void)
 {
     BuildBox b;
     b.lo = (float4)(INFINITY);
@@ -51,7 +51,7 @@ inline BuildBox build_box_empty(void)
     return b;
 }
 
-inline void build_box_grow(BuildBox* b, float4 lo, float4 hi)
+static inline void build_box_grow(BuildBox* b, float4 lo, float4 hi)
 {
     b->lo = BMIN4(lo, b->lo);
     b->hi = BMAX4(hi, b->hi);
@@ -59,20 +59,20 @@ inline void build_box_grow(BuildBox* b, float4 lo, float4 hi)
 
 /* Half surface area of the box in units of `inv` (1 / the node's largest half extent), so
  * any float32 coordinates give finite areas (as the numpy builder scales them). */
-inline float build_half_area(const BuildBox* b, float inv)
+static inline float build_half_area(const BuildBox* b, float inv)
 {
     float4 d = (0.5f * b->hi - 0.5f * b->lo) * inv;     /* halves keep the differences finite */
     return d.x < 0.0f ? 0.0f : d.x * d.y + d.y * d.z + d.z * d.x;
 }
 
-inline float4 build_load3(__global const float* p, uint id)
+static inline float4 build_load3(__global const float* p, uint id)
 {
     p += 3u * (size_t)id;
     return (float4)(p[0], p[1], p[2], 0.0f);
 }
 
 /* Work-item g of G: its share [g n / G, (g + 1) n / G) of the primitives. */
-inline void build_share(uint n, uint* b, uint* e)
+static inline void build_share(uint n, uint* b, uint* e)
 {
     uint g = get_global_id(0), G = get_global_size(0);
     *b = (uint)(((ulong)n * g) / G);
@@ -96,7 +96,7 @@ __kernel void bvh_centroid_bounds(__global const float* lo, __global const float
     o[3] = cmax.x; o[4] = cmax.y; o[5] = cmax.z;
 }
 
-inline uint build_spread(uint v)
+static inline uint build_spread(uint v)
 {
     v = (v | v << 16) & 0x030000FFu;
     v = (v | v << 8) & 0x0300F00Fu;

@@ -26,7 +26,7 @@
  * -inf when the origin lies exactly on a box face. The far distance is scaled by
  * 1 + 2 gamma(3), which makes the test conservative under float rounding (Ize 2013,
  * "Robust BVH Ray Traversal"). */
-inline float box_entry_parallel(float4 lo, float4 hi, float3 org, float3 dir, float tmin, float tmax)
+static inline float box_entry_parallel(float4 lo, float4 hi, float3 org, float3 dir, float tmin, float tmax)
 {
     float tn = tmin, tf = tmax, grow = 1.0f + 2.0f * gamma_n(3.0f);
     if (!(slab_clip(org.x, dir.x, lo.x, hi.x, grow, &tn, &tf) && slab_clip(org.y, dir.y, lo.y, hi.y, grow, &tn, &tf)
@@ -51,8 +51,8 @@ inline float box_entry_parallel(float4 lo, float4 hi, float3 org, float3 dir, fl
  * delta_t already rejects), never one at t > 0. A shadow ray from
  * a ground plane started in the plane's flat leaf box and tested its triangles; it no longer
  * does (tools/ab.py: textured meshes 0.94). For tmin > 0 such a box already fails tn <= tf. */
-inline float4 box4_entry(__global const float4* nd, float3 org, float3 dir, float3 inv_d, int nx, int ny, int nz,
-                         float tmin, float tmax, int par)
+static inline float4 box4_entry(__global const float4* nd, float3 org, float3 dir, float3 inv_d, int nx, int ny, int nz,
+                                float tmin, float tmax, int par)
 {
     float4 lox = nd[0], hix = nd[1], loy = nd[2], hiy = nd[3], loz = nd[4], hiz = nd[5];
     float4 tnx = ((nx ? hix : lox) - org.x) * inv_d.x, tfx = ((nx ? lox : hix) - org.x) * inv_d.x;
@@ -96,7 +96,7 @@ inline float4 box4_entry(__global const float4* nd, float3 org, float3 dir, floa
  * index below nnodes, and returns what it found so far otherwise -- an out-of-range
  * child or a cycle in a corrupt node array ends the traversal instead of reading past
  * the array or running forever (two integer tests per node, within the timing noise). */
-TX_OUT_OF_LINE HitRec bvh_closest_v(TX_GEOM_PARAMS, float4 org4, float4 dir4, float tmin, float tmax)
+TX_OUT_OF_LINE_SCALAR HitRec bvh_closest_v(TX_GEOM_PARAMS, float4 org4, float4 dir4, float tmin, float tmax)
 {
     float3 org = org4.xyz, dir = dir4.xyz;     /* float4, not float3: common.h */
     HitRec h = { tmax, 0.0f, 0.0f, TX_MISS };
@@ -111,7 +111,7 @@ TX_OUT_OF_LINE HitRec bvh_closest_v(TX_GEOM_PARAMS, float4 org4, float4 dir4, fl
     uint node = 0u, ck = 0u, budget = nnodes;   /* wide nodes left to enter: see above */
     for (;;) {
         if (ck != 0u) {
-            leaf_hit(TX_GEOM_ARGS, &w, org, dir, tmin, node, ck, 0, &h);
+            leaf_hit(TX_GEOM_ARGS, &w, org, dir, tmin, node, ck, 0, 0, &h);
         } else {
             if (node >= nnodes || budget-- == 0u) return h;   /* only in a broken tree: see above */
             __global const float4* nd = nodes + 8u * node;
@@ -143,7 +143,7 @@ TX_OUT_OF_LINE HitRec bvh_closest_v(TX_GEOM_PARAMS, float4 org4, float4 dir4, fl
 }
 #undef TX_SORT2
 
-inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
+static inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
 {
     return bvh_closest_v(TX_GEOM_ARGS, (float4)(org, 0.0f), (float4)(dir, 0.0f), tmin, tmax);
 }
@@ -155,7 +155,7 @@ inline HitRec bvh_closest(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, fl
  * stack full is dropped (as in bvh_closest: only a tree deeper than the program's
  * bound, where it can miss a hit). Bound: every wide node entered at most once, at
  * most nnodes iterations, enforced as in bvh_closest (0 for a corrupt tree). */
-TX_OUT_OF_LINE int bvh_any_v(TX_GEOM_PARAMS, float4 org4, float4 dir4, float tmin, float tmax)
+TX_OUT_OF_LINE_SCALAR int bvh_any_v(TX_GEOM_PARAMS, float4 org4, float4 dir4, float tmin, float tmax)
 {
     float3 org = org4.xyz, dir = dir4.xyz;     /* float4, not float3: common.h */
     if (nnodes == 0u || !ray_valid(org, dir, tmin, tmax)) return 0;
@@ -177,7 +177,7 @@ TX_OUT_OF_LINE int bvh_any_v(TX_GEOM_PARAMS, float4 org4, float4 dir4, float tmi
         for (int i = 0; i < 4; ++i) {
             if (!(t[i] < INFINITY)) continue;          /* missed (NaN fails too) */
             if (k[i] != 0u) {
-                if (leaf_hit(TX_GEOM_ARGS, &w, org, dir, tmin, c[i], k[i], 1, &h)) return 1;
+                if (leaf_hit(TX_GEOM_ARGS, &w, org, dir, tmin, c[i], k[i], 1, 0, &h)) return 1;
             } else if (sp < TX_STACK_SIZE) {           /* full: dropped (above) */
                 stack[sp++] = c[i];
             }
@@ -187,7 +187,7 @@ TX_OUT_OF_LINE int bvh_any_v(TX_GEOM_PARAMS, float4 org4, float4 dir4, float tmi
     }
 }
 
-inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
+static inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, float tmax)
 {
     return bvh_any_v(TX_GEOM_ARGS, (float4)(org, 0.0f), (float4)(dir, 0.0f), tmin, tmax);
 }

@@ -104,7 +104,7 @@ typedef struct {
 
 
 /* Lane j of the packet: the ray org + t dir, t in (tmin, tmax). */
-inline void packet_set_lane(PacketRay* r, uint j, float3 org, float3 dir, float tmin, float tmax)
+static inline void packet_set_lane(PacketRay* r, uint j, float3 org, float3 dir, float tmin, float tmax)
 {
     r->org[0][j] = org.x; r->org[1][j] = org.y; r->org[2][j] = org.z;
     r->dir[0][j] = dir.x; r->dir[1][j] = dir.y; r->dir[2][j] = dir.z;
@@ -121,7 +121,7 @@ inline void packet_set_lane(PacketRay* r, uint j, float3 org, float3 dir, float 
 #define PMIN(a, b) PSEL_F((a) < (b), a, b)
 
 /* safe_inverse (core/common.h) lane by lane: +-2^100 with x's sign bit (copysign). */
-inline pfloat safe_inverse_p(pfloat x)
+static inline pfloat safe_inverse_p(pfloat x)
 {
     pfloat big = as_pfloat((as_pint(x) & (pint)(0x80000000)) | (pint)(as_int(TX_PARALLEL_INV)));
     return PSEL_F(fabs(x) < 7.888609e-31f, big, 1.0f / x);
@@ -130,10 +130,10 @@ inline pfloat safe_inverse_p(pfloat x)
 /* packet_min: the smallest lane of v (the packet's nearest entry into a box: the traversal's
  * order); packet_max: the largest (TX_MIN, TX_MAX halving the vector). */
 #if TX_PACKET == 16
-#define TX_PACKET_REDUCE(name, op) inline float name(pfloat v) \
+#define TX_PACKET_REDUCE(name, op) static inline float name(pfloat v) \
     { float8 v8 = op(v.lo, v.hi); float4 v4 = op(v8.lo, v8.hi); float2 v2 = op(v4.lo, v4.hi); return op(v2.x, v2.y); }
 #else
-#define TX_PACKET_REDUCE(name, op) inline float name(pfloat v) \
+#define TX_PACKET_REDUCE(name, op) static inline float name(pfloat v) \
     { float4 v4 = op(v.lo, v.hi); float2 v2 = op(v4.lo, v4.hi); return op(v2.x, v2.y); }
 #endif
 TX_PACKET_REDUCE(packet_min, TX_MIN)
@@ -241,12 +241,9 @@ inline void packet_shear(PacketRay* r)
 #include "geometry/sphere_packet.h"   /* sphere_intersect_packet */
 #endif
 /* A packet's triangle hits' geometry as one vector computation: on PoCL only
- * (geometry/triangle_packet.h says why). */
-#if TX_TRIANGLES && defined(TX_POCL)
-#define TX_TRI_GEOM_PACKET 1
+ * (TX_TRI_GEOM_PACKET, geometry/dispatch.h; geometry/triangle_packet.h says why). */
+#if TX_TRI_GEOM_PACKET
 #include "geometry/triangle_packet.h"
-#else
-#define TX_TRI_GEOM_PACKET 0
 #endif
 
 /* Whether any lane of the packet can enter each of a wide node's four boxes (the beam test,
@@ -261,8 +258,8 @@ inline void packet_shear(PacketRay* r)
  * signs are the packet's, the differences' signs are not known.) One float4 test for
  * the four boxes, in place of four lane-by-lane tests where no lane enters. The lanes that
  * do enter are still found by box_entry_packet, so every answer is the same. */
-inline int4 beam_box4(const PacketRay* r, float4 lox, float4 hix, float4 loy, float4 hiy, float4 loz, float4 hiz,
-                      float tmax)
+static inline int4 beam_box4(const PacketRay* r, float4 lox, float4 hix, float4 loy, float4 hiy, float4 loz, float4 hiz,
+                             float tmax)
 {
     int o = r->signs, mixed = r->mixed;
     float4 bmin = r->bmin, bmax = r->bmax, ivmin = r->ivmin, ivmax = r->ivmax;
@@ -290,7 +287,7 @@ inline int4 beam_box4(const PacketRay* r, float4 lox, float4 hix, float4 loy, fl
 
 /* Whether a traversal of the lanes `active` may use the packet's beam: its bounds hold
  * packet_setup's lanes only. */
-inline int packet_beam(const PacketRay* r, pint active)
+static inline int packet_beam(const PacketRay* r, pint active)
 {
     return r->beam && !any(active & ~r->active);
 }
@@ -402,14 +399,14 @@ inline pint triangle_packet(const PacketRay* r, __global const TriVerts* tv, pin
 }
 
 /* The lanes of m whose ray hits the triangle tv in its (tmin, tmax). */
-inline pint triangle_any_packet(const PacketRay* r, __global const TriVerts* tv, pint m)
+static inline pint triangle_any_packet(const PacketRay* r, __global const TriVerts* tv, pint m)
 {
     pfloat t, b1, b2;
     return triangle_packet(r, tv, m, r->tmax, (pint)(0), &t, &b1, &b2);
 }
 
 /* Whether leaves of `kind` have a packet test (prim_packet). */
-inline int prim_packet_kind(uint kind)
+static inline int prim_packet_kind(uint kind)
 {
     int k = 0;                 /* #if, not TX_QUADS && ...: clang warns of || with a constant operand */
 #if TX_QUADS
@@ -424,8 +421,8 @@ inline int prim_packet_kind(uint kind)
 /* Primitive i of a leaf of `kind` (prim_packet_kind) against the lanes m, each with its
  * (tmin, tmax): the lanes with a hit, their t into *t and, for a quad, the patch's (u, v)
  * into *u, *v (a sphere leaves them). */
-inline pint prim_packet(TX_GEOM_PARAMS, const PacketRay* r, uint kind, uint i, pint m, pfloat tmax,
-                        pfloat* t, pfloat* u, pfloat* v)
+static inline pint prim_packet(TX_GEOM_PARAMS, const PacketRay* r, uint kind, uint i, pint m, pfloat tmax,
+                               pfloat* t, pfloat* u, pfloat* v)
 {
 #if TX_QUADS
     if (kind == PRIM_QUAD) {
@@ -463,6 +460,7 @@ inline pint leaf_any_packet(TX_GEOM_PARAMS, PacketRay* r, uint first, uint ck, p
         }
         return hit;
     }
+#if TX_SCALAR_KINDS                              /* geometry/dispatch.h */
     int ml[TX_PACKET], hl[TX_PACKET];
     PSTORE(m, ml);
     for (int j = 0; j < TX_PACKET; ++j) {
@@ -472,9 +470,12 @@ inline pint leaf_any_packet(TX_GEOM_PARAMS, PacketRay* r, uint first, uint ck, p
         float3 d = (float3)(r->dir[0][j], r->dir[1][j], r->dir[2][j]);
         WoopRay w = leaf_ray(o, d);
         HitRec h = { r->range[1][j], 0.0f, 0.0f, TX_MISS };
-        hl[j] = leaf_hit(TX_GEOM_ARGS, &w, o, d, r->range[0][j], first, ck, 1, &h) ? -1 : 0;
+        hl[j] = leaf_hit(TX_GEOM_ARGS, &w, o, d, r->range[0][j], first, ck, 1, 1, &h) ? -1 : 0;
     }
     return (pint)(TX_LANES(hl));
+#else
+    return hit;                                  /* no other kind in the program: nothing hit */
+#endif
 }
 
 /* One child lane s_ (s0..s3) of the wide node in bvh_any_packet: the lanes of m that enter
@@ -539,7 +540,8 @@ typedef struct {
 /* triangle_intersect4's choice for the triangle tv (the scene's triangle `index`) and the
  * lanes m: a lane takes the hit where t is in (tmin, h.t), or t == h.t and index is below
  * the hit's prim -- the same tie rule (header comment). */
-inline void triangle_closest_packet(const PacketRay* r, __global const TriVerts* tv, uint index, pint m, PacketHit* h)
+static inline void triangle_closest_packet(const PacketRay* r, __global const TriVerts* tv, uint index, pint m,
+                                           PacketHit* h)
 {
     pint tie = (h->prim != (pint)(-1)) & (as_puint((pint)(index)) < as_puint(h->prim));
     pfloat t, b1, b2;
@@ -574,6 +576,7 @@ inline void leaf_closest_packet(TX_GEOM_PARAMS, PacketRay* r, uint first, uint c
         }
         return;
     }
+#if TX_SCALAR_KINDS                              /* geometry/dispatch.h */
     float ht[TX_PACKET], hb1[TX_PACKET], hb2[TX_PACKET];
     int hp[TX_PACKET], ml[TX_PACKET];
     PSTORE(h->t, ht); PSTORE(h->b1, hb1); PSTORE(h->b2, hb2); PSTORE(h->prim, hp); PSTORE(m, ml);
@@ -583,11 +586,12 @@ inline void leaf_closest_packet(TX_GEOM_PARAMS, PacketRay* r, uint first, uint c
         float3 d = (float3)(r->dir[0][j], r->dir[1][j], r->dir[2][j]);
         WoopRay w = leaf_ray(o, d);
         HitRec hr = { ht[j], hb1[j], hb2[j], (uint)hp[j] };
-        leaf_hit(TX_GEOM_ARGS, &w, o, d, r->range[0][j], first, ck, 0, &hr);
+        leaf_hit(TX_GEOM_ARGS, &w, o, d, r->range[0][j], first, ck, 0, 1, &hr);
         ht[j] = hr.t; hb1[j] = hr.b1; hb2[j] = hr.b2; hp[j] = (int)hr.prim;
     }
     h->t = (pfloat)(TX_LANES(ht)); h->b1 = (pfloat)(TX_LANES(hb1)); h->b2 = (pfloat)(TX_LANES(hb2));
     h->prim = (pint)(TX_LANES(hp));
+#endif
 }
 
 /* Compare-exchange of two children (packet entry, child, count_kind, lane mask, entries). */

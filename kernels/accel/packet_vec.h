@@ -194,8 +194,8 @@ typedef struct {
  * quad_packet.h, triangle_packet.h), for the lanes j with ml[j] set (a lane mask stored by
  * the caller); the others' left as they were: into g[j] (g not NULL) and into gl's arrays
  * (gl not NULL; the lanes of m, or every lane for the packet's first kind). */
-inline void geom_store_packet(const int* ml, pfloat3 p, pfloat3 ng, pfloat3 dpdu, pfloat3 dpdv, pfloat u, pfloat v,
-                              pfloat3 perr, Geom* g, GeomLanes* gl)
+static inline void geom_store_packet(const int* ml, pfloat3 p, pfloat3 ng, pfloat3 dpdu, pfloat3 dpdv, pfloat u, pfloat v,
+                                     pfloat3 perr, Geom* g, GeomLanes* gl)
 {
     if (gl) {
         pfloat val[TX_GL_FIELDS] = { p.x, p.y, p.z, ng.x, ng.y, ng.z, dpdu.x, dpdu.y, dpdu.z, dpdv.x, dpdv.y, dpdv.z,
@@ -230,7 +230,7 @@ inline void geom_store_packet(const int* ml, pfloat3 p, pfloat3 ng, pfloat3 dpdu
  * scan of the stored mask lane by lane took 2-5% of a frame (perf, the textured meshes'
  * ground). Elsewhere the scan (no bit counting: LLVM's ctlz and cttz intrinsics are not all
  * Oclgrind 21.10 runs). */
-inline uint packet_first_lane(const int* ml)
+static inline uint packet_first_lane(const int* ml)
 {
 #if TX_POCL && defined(__AVX__)
     uint bits = tx_lane_bits(PLOAD(ml) != (pint)(0));
@@ -247,7 +247,7 @@ inline uint packet_first_lane(const int* ml)
  * packet_first_lane): then a packet geometry reads that one primitive once, as vectors of one
  * value, instead of gathering it lane by lane (the same values, so the same bits). One vector
  * comparison (a loop over the lanes took 1-2% of a frame). */
-inline int packet_one_index(const int* ml, const uint* idx, uint k0)
+static inline int packet_one_index(const int* ml, const uint* idx, uint k0)
 {
     pint other = PLOAD(idx) != (puint)(idx[k0]);
     return !any((PLOAD(ml) != (pint)(0)) & other);

@@ -26,7 +26,7 @@
 
 /* a * b - c * d with relative error <= 2u (Kahan's algorithm): no
  * cancellation even where the two products nearly agree. */
-inline float tx_diff_prod(float a, float b, float c, float d)
+static inline float tx_diff_prod(float a, float b, float c, float d)
 {
     float cd = c * d;
     float err = fma(-c, d, cd);        /* exactly cd - c * d */
@@ -34,7 +34,7 @@ inline float tx_diff_prod(float a, float b, float c, float d)
 }
 
 /* a x b, each component by tx_diff_prod: accurate even for nearly parallel a, b. */
-inline float3 tx_cross_accurate(float3 a, float3 b)
+static inline float3 tx_cross_accurate(float3 a, float3 b)
 {
     return (float3)(tx_diff_prod(a.y, b.z, a.z, b.y),
                     tx_diff_prod(a.z, b.x, a.x, b.z),
@@ -42,7 +42,7 @@ inline float3 tx_cross_accurate(float3 a, float3 b)
 }
 
 /* a + b, adding its rounding error exactly to *err (TwoSum). */
-inline float tx_two_sum(float a, float b, float* err)
+static inline float tx_two_sum(float a, float b, float* err)
 {
     float s = a + b;
     float bb = s - a;
@@ -51,7 +51,7 @@ inline float tx_two_sum(float a, float b, float* err)
 }
 
 /* a - b = *hi + *lo exactly, per component (TwoSum: six additions, no branch). */
-inline void tx_two_diff3(float3 a, float3 b, float3* hi, float3* lo)
+static inline void tx_two_diff3(float3 a, float3 b, float3* hi, float3* lo)
 {
     float3 s = a - b;
     float3 bb = s - a;                 /* the part of -b that made it into s */
@@ -61,7 +61,7 @@ inline void tx_two_diff3(float3 a, float3 b, float3* hi, float3* lo)
 
 /* v / |v| without overflow or underflow at any scale (v is first divided by
  * its largest component); `fallback` where v is zero or not finite. */
-inline float3 tx_unit_or(float3 v, float3 fallback)
+static inline float3 tx_unit_or(float3 v, float3 fallback)
 {
     float m = TX_MAX(TX_MAX(fabs(v.x), fabs(v.y)), fabs(v.z));
     if (!(m > 0.0f && m <= FLT_MAX)) return fallback;

@@ -19,11 +19,11 @@
 
 /* Rec. 709 luminance, what the fused kernel sums the squares of (texray.renderer.adaptive
  * LUMINANCE, the tests' reference). */
-inline float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+static inline float luminance(float3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 
 /* Whether a pixel with these sums has not converged (keeps sampling, with its 3x3
  * neighbours: stages/adaptive.cl). */
-inline int adaptive_open(float4 acc, float sum_y2, float threshold, float floor_y)
+static inline int adaptive_open(float4 acc, float sum_y2, float threshold, float floor_y)
 {
     float n = acc.w;
     float sum_y = luminance(acc.xyz);

@@ -68,7 +68,7 @@ __attribute__((overloadable)) inline float16 tx_fma(float16 a, float16 b, float1
 /* The next float after x toward y (C99 nextafter): one step of the bit pattern, away
  * from zero when y is farther from zero on x's side, else toward it; from +-0 the
  * smallest denormal of y's sign; NaN in, NaN out; x == y gives y. */
-inline float tx_nextafter(float x, float y)
+static inline float tx_nextafter(float x, float y)
 {
     if (x != x || y != y) return x + y;
     if (x == y) return y;
@@ -322,9 +322,9 @@ __attribute__((overloadable)) inline uint tx_clamp(uint x, uint lo, uint hi)
 #undef clamp
 #define clamp tx_clamp
 /* isnan, isinf, isfinite of a float (1 or 0, as the scalar builtins): its exponent bits. */
-inline int tx_isnan(float x) { return (as_uint(x) & 0x7fffffffu) > 0x7f800000u; }
-inline int tx_isinf(float x) { return (as_uint(x) & 0x7fffffffu) == 0x7f800000u; }
-inline int tx_isfinite(float x) { return (as_uint(x) & 0x7fffffffu) < 0x7f800000u; }
+static inline int tx_isnan(float x) { return (as_uint(x) & 0x7fffffffu) > 0x7f800000u; }
+static inline int tx_isinf(float x) { return (as_uint(x) & 0x7fffffffu) == 0x7f800000u; }
+static inline int tx_isfinite(float x) { return (as_uint(x) & 0x7fffffffu) < 0x7f800000u; }
 #undef isnan
 #define isnan tx_isnan
 #undef isinf
@@ -338,7 +338,7 @@ inline int tx_isfinite(float x) { return (as_uint(x) & 0x7fffffffu) < 0x7f800000
  * are not PoCL's bits: within 1.5 ulp of float64 (test_builtins.py measures the largest
  * error on a million inputs and checks every special value: zeros, denormals, infinities,
  * NaN, negatives, the range's ends). OpenCL 1.2 allows 3 ulp for both. */
-inline float tx_log2(float x)
+static inline float tx_log2(float x)
 {
     uint u = as_uint(x);
     int e = -127;
@@ -366,7 +366,7 @@ inline float tx_log2(float x)
 /* 2^x = 2^n 2^f, n = rint(x), |f| <= 1/2 exact; 2^f by its Taylor series to f^7 (the rest
  * < 6e-9 relative), scaled by 2^n as two powers of two (normal, so that the product rounds
  * once, also into the denormals). */
-inline float tx_exp2(float x)
+static inline float tx_exp2(float x)
 {
     if (!(x > -150.0f)) return x != x ? x : 0.0f;     /* NaN; or below half the least denormal */
     if (x >= 128.0f) return INFINITY;
@@ -388,7 +388,7 @@ inline float tx_exp2(float x)
  * four halves are one 8-byte load (texel offsets are 4-half aligned: vload_half4's
  * address is p + 4 o). Without F16C it stays PoCL's call. */
 #if defined(__F16C__)
-inline float4 tx_vload_half4(size_t o, const __global half* p)
+static inline float4 tx_vload_half4(size_t o, const __global half* p)
 {
     ushort4 u = *(const __global ushort4*)((const __global ushort*)p + 4 * o);
     return __builtin_ia32_vcvtph2ps((short8)(as_short4(u), (short4)(0)));

@@ -8,14 +8,14 @@
 #include "core/accurate.h"      /* after the FP_CONTRACT pragma, as the ray stage always was */
 
 /* The sample pattern of pixel (px, py): a hash of the pixel and the seed. */
-inline uint pixel_pattern(uint width, uint px, uint py, uint seed)
+static inline uint pixel_pattern(uint width, uint px, uint py, uint seed)
 {
     return hash_u32((py * width + px) ^ hash_u32(seed));
 }
 
 /* The camera ray through the point j in [0, 1)^2 of pixel (px, py); dir is not normalized. */
-inline void camera_ray(__constant Camera* cam, uint width, uint height, uint px, uint py, float2 j,
-                       float3* org, float3* dir)
+static inline void camera_ray(__constant Camera* cam, uint width, uint height, uint px, uint py, float2 j,
+                              float3* org, float3* dir)
 {
     float x = 2.0f * ((float)px + j.x) / (float)width - 1.0f;
     float y = 1.0f - 2.0f * ((float)py + j.y) / (float)height;

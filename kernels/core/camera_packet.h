@@ -13,8 +13,8 @@
 
 /* The direction of camera_ray through the point (jx, jy) of pixel (px, py), lane by lane
  * (px, py: the pixel's coordinates as floats); every lane's origin is the eye. */
-inline pfloat3 camera_dir_packet(__constant Camera* cam, uint width, uint height, pfloat px, pfloat py, pfloat jx,
-                                 pfloat jy)
+static inline pfloat3 camera_dir_packet(__constant Camera* cam, uint width, uint height, pfloat px, pfloat py, pfloat jx,
+                                        pfloat jy)
 {
     pfloat x = 2.0f * (px + jx) / (float)width - 1.0f;
     pfloat y = 1.0f - 2.0f * (py + jy) / (float)height;
@@ -24,7 +24,7 @@ inline pfloat3 camera_dir_packet(__constant Camera* cam, uint width, uint height
 
 /* ray_valid (core/common.h) lane by lane for rays from one origin org over (0, inf): the
  * lanes (-1) whose direction is finite, not above 2^126 and not below 2^-100 on every axis. */
-inline pint ray_valid_packet(float3 org, pfloat3 d)
+static inline pint ray_valid_packet(float3 org, pfloat3 d)
 {
     if (!finite3(org)) return (pint)(0);
     pfloat ax = fabs(d.x), ay = fabs(d.y), az = fabs(d.z);

@@ -19,14 +19,32 @@
  * float3 arguments from the wrong place (packed 3 floats apart by the caller, read 4
  * apart), so rays, hits and shading mix between work-items; float4 arguments are
  * right. On that compiler every inline helper is therefore always inlined, and the
- * three marked TX_OUT_OF_LINE (bvh_closest_v, bvh_any_v in accel/bvh.h, surface_eval_v
- * in stages/surface.cl: large, with several callers), which take float4, are not
- * declared inline: left out of line, they keep the kernels that call them vectorizable.
- * (PoCL's LLVM inlines by its own cost model whatever the keyword: a large helper with
- * several callers stays a call there, its struct arguments and result passed through
- * memory, unless marked always_inline, as texture/texture.h's bilinear lookup is.) */
+ * three marked TX_OUT_OF_LINE or TX_OUT_OF_LINE_SCALAR (bvh_closest_v, bvh_any_v in
+ * accel/bvh.h, surface_eval_v in shading/surface.h: large, with several callers), which take
+ * float4, are not declared inline: left out of line, they keep the kernels that call them
+ * vectorizable. (PoCL's LLVM inlines by its own cost model whatever the keyword: a large
+ * helper with several callers stays a call there, its struct arguments and result passed
+ * through memory, unless marked always_inline, as texture/texture.h's bilinear lookup is.)
+ *
+ * Helpers are `static` where no packet program's fused kernel calls them out of line (the
+ * scalar traversals, the stage kernels' helpers, small ones every caller inlines): a static
+ * function is compiled only into a program that calls it, and a fused-only program
+ * (TX_STAGES 0: texray.device.features compile_options) leaves out the stage kernels, so
+ * PoCL's front end no longer optimises code no kernel of the program calls (a third of a
+ * packet program's functions: 5-9% of a cold build's instructions, callgrind). The helpers
+ * such kernels do call stay extern `inline`: a static one with a single caller would be
+ * inlined by the front end already, and the whole kernel optimised twice (every helper
+ * static cost a cold build 15% more). bvh_closest_v and bvh_any_v are static on PoCL only
+ * (TX_OUT_OF_LINE_SCALAR): elsewhere they stay extern and out of line, as above for Intel's
+ * compiler, and because Oclgrind's clang, inlining a static one into its one caller, emits an
+ * intrinsic its interpreter does not know (llvm.experimental.noalias.scope.decl). */
 #if defined(__INTEL_LLVM_COMPILER)
 #define inline inline __attribute__((always_inline))
+#endif
+#if TX_POCL
+#define TX_OUT_OF_LINE_SCALAR static __attribute__((unused))
+#else
+#define TX_OUT_OF_LINE_SCALAR
 #endif
 #define TX_OUT_OF_LINE
 
@@ -45,14 +63,14 @@
 /* Unit roundoff of float32 (2^-24). gamma_n(n) = n u / (1 - n u) bounds the
  * relative error of n chained float operations (Higham; pbrt-v4 3.9). */
 #define TX_FLT_U 5.9604645e-08f
-inline float gamma_n(float n) { return (n * TX_FLT_U) / (1.0f - n * TX_FLT_U); }
+static inline float gamma_n(float n) { return (n * TX_FLT_U) / (1.0f - n * TX_FLT_U); }
 
 #define TX_MIN(a, b) ((a) < (b) ? (a) : (b))
 #define TX_MAX(a, b) ((a) > (b) ? (a) : (b))
 #define TX_MISS 0xffffffffu
 
-inline float dot3(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline float3 cross3(float3 a, float3 b)
+static inline float dot3(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline float3 cross3(float3 a, float3 b)
 {
     return (float3)(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
@@ -62,7 +80,7 @@ inline float3 cross3(float3 a, float3 b)
  * first divided by its largest component, which is exact in direction. A zero or
  * non-finite v is returned as it is (the old result for zero; callers that can meet a
  * non-finite vector check it). */
-inline float3 normalize3(float3 v)
+static inline float3 normalize3(float3 v)
 {
     float l2 = dot3(v, v);
     if (l2 >= FLT_MIN && l2 <= FLT_MAX) return v * rsqrt(l2);
@@ -74,21 +92,21 @@ inline float3 normalize3(float3 v)
 }
 
 /* Whether every component of v is finite (false for NaN). */
-inline int finite3(float3 v)
+static inline int finite3(float3 v)
 {
     return fabs(v.x) <= FLT_MAX && fabs(v.y) <= FLT_MAX && fabs(v.z) <= FLT_MAX;
 }
-inline float3 abs3(float3 v) { return (float3)(fabs(v.x), fabs(v.y), fabs(v.z)); }
+static inline float3 abs3(float3 v) { return (float3)(fabs(v.x), fabs(v.y), fabs(v.z)); }
 
 /* Component k (0, 1, 2) of v, without indexing a private vector through memory. */
-inline float comp3(float3 v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
-inline float3 unit3(int k) { return (float3)(k == 0, k == 1, k == 2); }
+static inline float comp3(float3 v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
+static inline float3 unit3(int k) { return (float3)(k == 0, k == 1, k == 2); }
 
 /* 1/x, but +-2^100 instead of +-inf for |x| < 2^-100, so that slab tests never
  * compute 0 * inf = NaN for a ray parallel to a box face (madmann91/bvh's
  * safe_inverse). A direction component that small is zero for all purposes. */
 #define TX_PARALLEL_INV 1.2676506e30f   /* 2^100: safe_inverse's value for a zero component */
-inline float safe_inverse(float x)
+static inline float safe_inverse(float x)
 {
     return fabs(x) < 7.888609e-31f ? copysign(TX_PARALLEL_INV, x) : 1.0f / x;
 }
@@ -112,7 +130,7 @@ inline float safe_inverse(float x)
  * b - org is finite or +-inf, 1/dir finite and nonzero. */
 #define TX_DIR_MIN 7.888609e-31f        /* 2^-100: safe_inverse's threshold */
 #define TX_DIR_MAX 8.507059e+37f        /* 2^126 */
-inline int ray_valid(float3 org, float3 dir, float tmin, float tmax)
+static inline int ray_valid(float3 org, float3 dir, float tmin, float tmax)
 {
     float3 ad = abs3(dir);
     return finite3(org) && ad.x <= TX_DIR_MAX && ad.y <= TX_DIR_MAX && ad.z <= TX_DIR_MAX
@@ -122,7 +140,7 @@ inline int ray_valid(float3 org, float3 dir, float tmin, float tmax)
 /* Move a point off a surface along n by `offset` (pbrt-v4 OffsetRayOrigin):
  * the offset is an error bound of p, and nextafter rounds away so that the
  * result is strictly on n's side even after rounding. */
-inline float3 offset_point(float3 p, float3 n, float offset)
+static inline float3 offset_point(float3 p, float3 n, float offset)
 {
     float3 q = p + n * offset;
     q.x = n.x > 0.0f ? nextafter(q.x, INFINITY) : (n.x < 0.0f ? nextafter(q.x, -INFINITY) : q.x);
@@ -140,15 +158,15 @@ inline float3 offset_point(float3 p, float3 n, float offset)
 #define FOR_EACH_LIGHT(i, n) for (uint i = 0; i < (n); ++i)
 #endif
 
-inline float3 ray_org(__global const Ray* r) { return vload3(0, r->org); }
-inline float3 ray_dir(__global const Ray* r) { return vload3(0, r->dir); }
+static inline float3 ray_org(__global const Ray* r) { return vload3(0, r->org); }
+static inline float3 ray_dir(__global const Ray* r) { return vload3(0, r->dir); }
 
 /* The image's pixel i (three floats in rgb, what the host reads back): the mean of its
  * accumulator a (sum R, G, B, and the samples' count, an exact integer), one IEEE division per
  * channel -- numpy's float32 division by spp or by the count made the same bits on the host
  * until 2026-12-08. The kernels that add to a pixel's sums write it each time, the last time
  * with every sample in (stages/fused.cl, stages/shade.cl). */
-inline void pixel_mean(float4 a, uint i, __global float* rgb)
+static inline void pixel_mean(float4 a, uint i, __global float* rgb)
 {
     vstore3(a.xyz / a.w, i, rgb);
 }

@@ -15,7 +15,7 @@
 
 /* A unit vector perpendicular to the unit vector n: z x n or x x n, whichever is
  * longer (at least 1/sqrt(2) before normalization, so never near zero). */
-inline float3 any_tangent(float3 n)
+static inline float3 any_tangent(float3 n)
 {
     return normalize3(fabs(n.x) > fabs(n.z) ? (float3)(-n.y, n.x, 0.0f) : (float3)(0.0f, -n.z, n.y));
 }
@@ -25,7 +25,7 @@ inline float3 any_tangent(float3 n)
  * d(s, t)/d(u, v) and p, q the derivatives of some quantity with respect to u and v,
  * x and y are its derivatives with respect to s and t. Componentwise in p, q, so two
  * right-hand sides can share one call (texture/differentials.h). */
-inline void mul_inverse2(float2 a, float2 b, float inv, float3 p, float3 q, float3* x, float3* y)
+static inline void mul_inverse2(float2 a, float2 b, float inv, float3 p, float3 q, float3* x, float3* y)
 {
     *x = (b.y * p - a.y * q) * inv;
     *y = (a.x * q - b.x * p) * inv;
@@ -36,7 +36,7 @@ inline void mul_inverse2(float2 a, float2 b, float inv, float3 p, float3 q, floa
  * is singular to float precision: |det J| at most 2^-16 of |J00 J11| + |J01 J10| (the
  * determinant is then within a few hundred roundings of zero and its inverse would
  * amplify them more than 6e4-fold), or not finite (NaN included). */
-inline int reparam_tangents(float2 ju, float2 jv, float3 pu, float3 pv, float3* ps, float3* pt)
+static inline int reparam_tangents(float2 ju, float2 jv, float3 pu, float3 pv, float3* ps, float3* pt)
 {
     float det = ju.x * jv.y - jv.x * ju.y;
     float size = fabs(ju.x * jv.y) + fabs(jv.x * ju.y);

@@ -18,7 +18,7 @@ typedef struct {
     int near_ok, far_ok;
 } QuadRoots;
 
-inline QuadRoots stable_roots(float a, float b, float c, float root, int c_ok)
+static inline QuadRoots stable_roots(float a, float b, float c, float root, int c_ok)
 {
     float q = -(b + copysign(root, b));
     float t_small = c / q, t_large = q / a;
@@ -32,7 +32,7 @@ inline QuadRoots stable_roots(float a, float b, float c, float root, int c_ok)
  * <= 2u (core/accurate.h tx_diff_prod): nearly double roots (a ray near a curved
  * surface's silhouette) keep their accuracy, and the sign that decides hit or miss is
  * right. */
-inline float quadratic_disc(float a, float b, float c)
+static inline float quadratic_disc(float a, float b, float c)
 {
     return tx_diff_prod(b, b, a, c);
 }

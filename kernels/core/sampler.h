@@ -30,10 +30,10 @@
 /* floor(log2 m) for m >= 1, from the float's exponent: exact below 2^24 (above, m rounds, and
  * a caller's test m == 1u << k then holds only for a power of two, as it should). Not
  * (m & (m - 1)) == 0, which LLVM turns into llvm.ctpop: Oclgrind 21.10 cannot run it. */
-inline uint cmj_log2(uint m) { return (as_uint((float)m) >> 23) - 127u; }
+static inline uint cmj_log2(uint m) { return (as_uint((float)m) >> 23) - 127u; }
 
 /* The mask w = 2^k - 1 >= l - 1 of cmj_permute (l >= 2). */
-inline uint cmj_mask(uint l)
+static inline uint cmj_mask(uint l)
 {
     uint w = l - 1u;
     w |= w >> 1; w |= w >> 2; w |= w >> 4; w |= w >> 8; w |= w >> 16;
@@ -64,7 +64,7 @@ inline uint cmj_permute(uint i, uint l, uint p)
     } while (0)
 #define TX_CMJ_RANDSCALE (1.0f / 4294967808.0f)
 
-inline float cmj_randfloat(uint i, uint p)
+static inline float cmj_randfloat(uint i, uint p)
 {
     TX_CMJ_RANDBITS(i, p);
     return (float)i * TX_CMJ_RANDSCALE;
@@ -83,7 +83,7 @@ inline float cmj_randfloat(uint i, uint p)
  * capped at 65535 (65536^2 wraps to 0 in uint), so the first two loops take a step or
  * two, and the third ends at m = 1 at the latest. N = 0 (no samples: the host never
  * asks) gives 1, so that no caller divides by zero. */
-inline uint cmj_grid_m(uint N)
+static inline uint cmj_grid_m(uint N)
 {
     if (N == 0u) return 1u;
     uint m = TX_MIN((uint)sqrt((float)N), 65535u);
@@ -120,14 +120,14 @@ inline uint cmj_grid_m(uint N)
  * a run of L samples the (row, column) pairs differ (Chinese remainder theorem), and the
  * shift gives each run its own class of row - column modulo gcd(m, n): all N take every
  * cell once, the same stratification as Kensler's, in another order. */
-inline uint cmj_lcm(uint m, uint n)
+static inline uint cmj_lcm(uint m, uint n)
 {
     uint a = m, b = n;
     while (b != 0u) { uint t = a % b; a = b; b = t; }      /* Euclid: a = gcd(m, n), O(log n) steps */
     return a != 0u ? m / a * n : 1u;
 }
 
-inline uint cmj_cell(uint k, uint N, uint m, uint p)
+static inline uint cmj_cell(uint k, uint N, uint m, uint p)
 {
 #if TX_ADAPTIVE
     uint n = TX_MAX(N / m, 1u);                             /* N = 0 (never asked): cell 0 */
@@ -139,7 +139,7 @@ inline uint cmj_cell(uint k, uint N, uint m, uint p)
 }
 
 /* cmj_sample with the grid's m = cmj_grid_m(N) computed by the caller (once per pixel). */
-inline float2 cmj_sample_m(uint s, uint N, uint m, uint p)
+static inline float2 cmj_sample_m(uint s, uint N, uint m, uint p)
 {
     uint n = N / m;
     s = cmj_cell(s, N, m, p);
@@ -151,7 +151,7 @@ inline float2 cmj_sample_m(uint s, uint N, uint m, uint p)
                     ((float)(s / m) + ((float)sx + jy) / (float)m) / (float)n);
 }
 
-inline float2 cmj_sample(uint s, uint N, uint p)
+static inline float2 cmj_sample(uint s, uint N, uint p)
 {
     return cmj_sample_m(s, N, cmj_grid_m(N), p);
 }
@@ -190,7 +190,7 @@ inline float2 cmj_sample(uint s, uint N, uint p)
 #endif
 #endif
 
-inline uint hash_u32(uint x)
+static inline uint hash_u32(uint x)
 {
     x ^= x >> 16; x *= 0x7feb352du;
     x ^= x >> 15; x *= 0x846ca68bu;
@@ -209,7 +209,7 @@ inline uint hash_u32(uint x)
  * offset hashes p with its own salt, independent of the positions' permutations
  * (TX_CMJ_SALT_*). n = 0: 0 (no light is then read). */
 #define TX_LIGHT_SALT 0x2c1b3c6du
-inline uint light_pick(uint sample, uint p, uint n, uint b)
+static inline uint light_pick(uint sample, uint p, uint n, uint b)
 {
     if (n == 0u) return 0u;
     b = b > 1u ? b : 1u;
@@ -233,7 +233,7 @@ inline uint light_pick(uint sample, uint p, uint n, uint b)
  * (TX_ADAPTIVE) may stop a pixel after any round: there b = 1, so that every round holds
  * every light's samples. A function of the image's spp and the light count only, so every
  * path (packets or not, the staged pipeline) picks the same lights. */
-inline uint light_block(uint spp, uint n)
+static inline uint light_block(uint spp, uint n)
 {
 #if TX_ADAPTIVE
     return TX_MAX(spp / cmj_grid_m(spp), 1u);

@@ -24,7 +24,7 @@
 /* cmj_permute lane by lane (each lane its own pattern p): a lane's walk stops where the
  * scalar one breaks (its value kept, selected by bit operations: see accel/packet.h
  * PSEL_I), the loop when every lane has stopped or after the same w + 1 steps. */
-inline TX_CU TX_CMJ_T(cmj_permute_packet)(TX_CU i, uint l, TX_CU p)
+static inline TX_CU TX_CMJ_T(cmj_permute_packet)(TX_CU i, uint l, TX_CU p)
 {
     if (l <= 1u) return (TX_CU)(0u);
     uint w = cmj_mask(l);
@@ -41,7 +41,7 @@ inline TX_CU TX_CMJ_T(cmj_permute_packet)(TX_CU i, uint l, TX_CU p)
 
 /* s / m and s % m lane by lane; a power of two m (every power-of-two N) as a shift and a
  * mask, the same values without a division per lane (core/sampler.h cmj_log2). */
-inline void TX_CMJ_T(cmj_divmod_packet)(TX_CU s, uint m, TX_CU* q, TX_CU* r)
+static inline void TX_CMJ_T(cmj_divmod_packet)(TX_CU s, uint m, TX_CU* q, TX_CU* r)
 {
     uint k = cmj_log2(m);
     if (m == 1u << k) {
@@ -56,7 +56,7 @@ inline void TX_CMJ_T(cmj_divmod_packet)(TX_CU s, uint m, TX_CU* q, TX_CU* r)
 /* cmj_permute_packet where l is a power of two (1 included): one round maps [0, l) onto
  * itself (it ends with i &= w, w = l - 1), so the walk is that round and the result the same
  * value; l = 1 gives 0 (w = 0). Straight-line code, with no exit test per round. */
-inline TX_CU TX_CMJ_T(cmj_permute_pow2_packet)(TX_CU i, uint l, TX_CU p)
+static inline TX_CU TX_CMJ_T(cmj_permute_pow2_packet)(TX_CU i, uint l, TX_CU p)
 {
     uint w = l - 1u;
     TX_CMJ_ROUND(i, p, w);

@@ -18,7 +18,7 @@
  * under float rounding (Ize 2013, "Robust BVH Ray Traversal"), 1 leaves it exact (the
  * caller widened the slab instead). Whether the interval is empty is the caller's test
  * (*tn <= *tf), after all axes. */
-inline int slab_clip(float o, float d, float lo, float hi, float far_scale, float* tn, float* tf)
+static inline int slab_clip(float o, float d, float lo, float hi, float far_scale, float* tn, float* tf)
 {
     if (d == 0.0f) return o >= lo && o <= hi;
     float t0 = (lo - o) / d, t1 = (hi - o) / d;

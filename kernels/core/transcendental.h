@@ -12,7 +12,7 @@
 
 /* atan(a) for |a| <= tan(pi/8): Cephes' atanf polynomial (S. Moshier), relative
  * error about 1e-7 there. */
-inline float tx_atan_poly(float a)
+static inline float tx_atan_poly(float a)
 {
     float z = a * a;
     return ((((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z
@@ -24,7 +24,7 @@ inline float tx_atan_poly(float a)
  * atan a = pi/4 + atan((a - 1) / (a + 1))), then the octant restored. Both zero: 0 or
  * pi by x's sign; both infinite: the diagonal; NaN in, NaN out. Error at most 4 ulp of
  * the result (measured: 2). */
-inline float tx_atan2(float y, float x)
+static inline float tx_atan2(float y, float x)
 {
     if (x != x || y != y) return x + y;
     float ax = fabs(x), ay = fabs(y);
@@ -41,7 +41,7 @@ inline float tx_atan2(float y, float x)
  * (larger magnitude in [2^-40, 2^60]), else both scaled by a power of two first
  * (exact). Within 1.5 ulp (tests/kernels/test_builtins.py); inf if either is infinite (even with a NaN), else NaN in,
  * NaN out. */
-inline float tx_hypot(float x, float y)
+static inline float tx_hypot(float x, float y)
 {
     float ax = fabs(x), ay = fabs(y);
     if (ax > FLT_MAX || ay > FLT_MAX) return INFINITY;

@@ -102,7 +102,7 @@ inline float cylinder_theta_rel(float x, float y, float theta_min)
 /* The hit point of root t, the near (side = -1) or the far (side = +1) one,
  * relative to the origin: its offset from the axis (world space) and its
  * axial coordinate. */
-inline float3 cylinder_point(const CylRay* c, float t, float side, float* z)
+static inline float3 cylinder_point(const CylRay* c, float t, float side, float* z)
 {
     float h = side * sqrt(TX_MAX(c->disc, 0.0f) / c->a);
     *z = c->aimed ? c->z_mid + h * c->dz : c->fz + t * c->dz;
@@ -110,8 +110,8 @@ inline float3 cylinder_point(const CylRay* c, float t, float side, float* z)
 }
 
 /* Whether root t (side -1 near, +1 far) is in (tmin, tmax) and its point in the z and theta ranges. */
-inline int cylinder_in_range(__global const Cylinder* cy, const CylRay* c, float t, float side,
-                             float tmin, float tmax, float span)
+static inline int cylinder_in_range(__global const Cylinder* cy, const CylRay* c, float t, float side,
+                                    float tmin, float tmax, float span)
 {
     if (!(t > tmin && t < tmax)) return 0;
     float3 ax = cylinder_axis_x(cy), az = cylinder_axis_z(cy);
@@ -149,7 +149,7 @@ inline int cylinder_intersect(__global const Cylinder* cy, float3 org, float3 di
 /* Whether t (from cylinder_intersect) is the near root: as sphere_root_is_near,
  * t is matched against the same computation's roots; where they are equal,
  * cylinder_intersect took the near one if it was ok and in range. */
-inline int cylinder_root_is_near(__global const Cylinder* cy, const CylRay* c, float t)
+static inline int cylinder_root_is_near(__global const Cylinder* cy, const CylRay* c, float t)
 {
     if (c->roots.t_near == c->roots.t_far)
         return c->roots.near_ok
@@ -163,8 +163,8 @@ inline int cylinder_root_is_near(__global const Cylinder* cy, const CylRay* c, f
  * (span = theta_max - theta_min, height = z_max - z_min). The one parameterization of
  * the cylinder and of its displaced surface (there at the displaced radius,
  * geometry/displace.h). */
-inline void cylinder_tangents(float x, float y, float span, float height, float3 ax, float3 ay, float3 az,
-                              float3* dpdu, float3* dpdv)
+static inline void cylinder_tangents(float x, float y, float span, float height, float3 ax, float3 ay, float3 az,
+                                     float3* dpdu, float3* dpdv)
 {
     *dpdu = span * (x * ay - y * ax);
     *dpdv = height * az;

@@ -157,7 +157,7 @@ inline DispFrame disp_frame(__global const Displaced* d, float3 org, float3 dir)
 }
 
 /* Distance of x from [0, 1]; +inf for NaN. */
-inline float disp_unit_distance(float x)
+static inline float disp_unit_distance(float x)
 {
     return x >= 0.0f && x <= 1.0f ? 0.0f : (x < 0.0f ? -x : (x > 1.0f ? x - 1.0f : INFINITY));
 }
@@ -171,7 +171,7 @@ inline float disp_unit_distance(float x)
  * core/quadratic.h's stable roots (k2 = 0 leaves the linear root); of the two, the one
  * nearer [0, 1] (a convex quad has one root there for a point over it). Then
  * u = (q - v e1).w / w.w. NaN where no real root exists (q far outside). */
-inline float2 disp_inverse_bilinear(const DispFrame* f, float3 q)
+static inline float2 disp_inverse_bilinear(const DispFrame* f, float3 q)
 {
     float k1 = f->k1 + dot3(q, f->r1), k0 = dot3(q, f->r0);
     float hb = 0.5f * k1, disc = quadratic_disc(f->k2, hb, k0);
@@ -217,13 +217,13 @@ inline float3 disp_tri_local(const DispFrame* f, float3 q)
 }
 
 /* b = (b1, b2) in the triangle extended by TX_DISP_TRI_BAND; false for NaN. */
-inline int disp_tri_inside(float2 b)
+static inline int disp_tri_inside(float2 b)
 {
     return b.x >= -TX_DISP_TRI_BAND && b.y >= -TX_DISP_TRI_BAND && b.x + b.y <= 1.0f + TX_DISP_TRI_BAND;
 }
 
 /* The texture uv of barycentrics b. */
-inline float2 disp_tri_uv(const DispFrame* f, float2 b)
+static inline float2 disp_tri_uv(const DispFrame* f, float2 b)
 {
     return f->t0 + b.x * f->t1 + b.y * f->t2;
 }
@@ -255,7 +255,7 @@ inline float4 disp_cell_corners(__global const ushort* hts, const DispFrame* f, 
 }
 
 /* H(u, v) for (u, v) in [0, 1]^2 and its gradient (dH/du, dH/dv) (texture/texture.h's taps). */
-inline float disp_height(__global const ushort* hts, const DispFrame* f, float2 uv, float2* grad)
+static inline float disp_height(__global const ushort* hts, const DispFrame* f, float2 uv, float2* grad)
 {
     float x = uv.x * (float)f->w + 0.5f, y = (1.0f - uv.y) * (float)f->h + 0.5f;
     float cx = floor(x), cy = floor(y);
@@ -286,7 +286,7 @@ inline float disp_f(__global const ushort* hts, const DispFrame* f, float t, flo
 }
 
 /* The ray's interval [*a, *b] within (tmin, tmax) of the sphere |q| <= R: 0 if none. */
-inline int disp_ball(float3 q0, float3 dir, float R, float* a, float* b)
+static inline int disp_ball(float3 q0, float3 dir, float R, float* a, float* b)
 {
     float aa = dot3(dir, dir);
     float3 w = cross3(q0, dir);
@@ -344,7 +344,7 @@ inline int disp_clip(const DispFrame* f, float tmin, float tmax, float* A, float
 #if TX_DISP_MESH
 /* A crossing t of the ray with a face of a prism shell: widens [*ta, *tb], *entry the face
  * of the nearest, *n counts them. */
-inline void disp_tri_crossing(float t, int face, float* ta, float* tb, int* entry, int* n)
+static inline void disp_tri_crossing(float t, int face, float* ta, float* tb, int* entry, int* n)
 {
     if (t < *ta) { *ta = t; *entry = face; }
     *tb = TX_MAX(*tb, t);
@@ -352,7 +352,7 @@ inline void disp_tri_crossing(float t, int face, float* ta, float* tb, int* entr
 }
 
 /* q inside the prism over the sub-triangle (o, k) (disp_tri_clip) between hlo and hhi. */
-inline int disp_tri_in_shell(const DispFrame* f, float3 q, float2 o, float k, float hlo, float hhi)
+static inline int disp_tri_in_shell(const DispFrame* f, float3 q, float2 o, float k, float hlo, float hhi)
 {
     float3 b = disp_tri_local(f, q);
     float2 s = (b.xy - o) * k;
@@ -437,7 +437,7 @@ inline int disp_tri_clip(__global const Displaced* d, const DispFrame* f, const 
  * (hmax - hmin) / (|dir| cos), cos the largest over its vertex normals and face normal (the
  * most samples where the surface curves). A ray crossing k shells then takes about N
  * samples in all, as over a quad, not k N; at least 1 step (both ends). */
-inline uint disp_tri_steps(const DispFrame* f, float3 dir, float A, float B, uint steps)
+static inline uint disp_tri_steps(const DispFrame* f, float3 dir, float A, float B, uint steps)
 {
     float3 nv1 = f->n + f->dn1, nv2 = f->n + f->dn2;
     float c = TX_MAX(TX_MAX(fabs(dot3(f->n, dir)), fabs(dot3(nv1, dir)) * rsqrt(dot3(nv1, nv1))),
@@ -499,7 +499,7 @@ inline int disp_search(__global const ushort* hts, const DispFrame* f, float A, 
  * discriminant is Kahan's (core/quadratic.h), as for the bilinear quad: near a double
  * root (a ray grazing a texel cell's patch) its sign is right, where the plain
  * difference of products could round it below 0 and drop the hit. */
-inline int disp_quadratic_root(float c0, float c1, float c2, float len, int any, int from_outside, float* s)
+static inline int disp_quadratic_root(float c0, float c1, float c2, float len, int any, int from_outside, float* s)
 {
     float b = 0.5f * c1;                                  /* core/quadratic.h: half the linear coefficient */
     float disc = quadratic_disc(c2, b, c0);
@@ -524,7 +524,7 @@ inline int disp_quadratic_root(float c0, float c1, float c2, float len, int any,
  * grid cw[l] x ch[l] (level 0: (W + 1) x (H + 1) cells between texel centres, then halved,
  * rounded up). Returns the level count (<= TX_DISP_MAX_LEVELS); 0 where there is no
  * pyramid to index. */
-inline int disp_pyramid(__global const Displaced* d, const DispFrame* f, uint* off, int* cw, int* ch)
+static inline int disp_pyramid(__global const Displaced* d, const DispFrame* f, uint* off, int* cw, int* ch)
 {
     int levels = TX_MIN((int)d->levels, TX_DISP_MAX_LEVELS);
     if (levels < 1 || f->w < 1 || f->h < 1) return 0;
@@ -613,13 +613,13 @@ inline int disp_maxmip(__global const ushort* hts, __global const Displaced* d, 
 
 #if TX_DISP_MAXMIP_CURVED || TX_DISP_MAXMIP_TRAPEZOID || TX_DISP_MAXMIP_MESH
 /* The bilinear patch of a texel cell's corners c at fractions (ax, ay) (disp_height's). */
-inline float disp_bilerp(float4 c, float ax, float ay)
+static inline float disp_bilerp(float4 c, float ax, float ay)
 {
     return (c.x * (1.0f - ax) + c.y * ax) * (1.0f - ay) + (c.z * (1.0f - ax) + c.w * ax) * ay;
 }
 
 /* Level-0 cell index of the coordinate x, clamped to [0, n - 1] (NaN -> 0). */
-inline int disp_cell_index(float x, int n)
+static inline int disp_cell_index(float x, int n)
 {
     return x >= 1.0f ? TX_MIN((int)TX_MIN(x, (float)(n - 1)), n - 1) : 0;
 }
@@ -740,7 +740,7 @@ inline float3 disp_piece_xyh(const DispFrame* f, const DispPiece* pc, float t)
 }
 
 /* H at (X, Y) (disp_height's interpolant, from X, Y directly). */
-inline float disp_height_xy(__global const ushort* hts, const DispFrame* f, float X, float Y)
+static inline float disp_height_xy(__global const ushort* hts, const DispFrame* f, float X, float Y)
 {
     int cx = disp_cell_index(X, f->w + 1), cy = disp_cell_index(Y, f->h + 1);
     float4 c = disp_cell_corners(hts, f, cx, cy);
@@ -748,20 +748,20 @@ inline float disp_height_xy(__global const ushort* hts, const DispFrame* f, floa
 }
 
 /* The primitive's (u, v) of cell coordinates (X, Y), clamped to [0, 1]. */
-inline float2 disp_xy_uv(const DispFrame* f, float3 e)
+static inline float2 disp_xy_uv(const DispFrame* f, float3 e)
 {
     return clamp((float2)((e.x - 0.5f) / (float)f->w, 1.0f - (e.y - 0.5f) / (float)f->h), 0.0f, 1.0f);
 }
 
 /* Adds the cut t to s[*n] when it lies strictly inside (A, B). */
-inline void disp_cut(float t, float A, float B, float* s, int* n)
+static inline void disp_cut(float t, float A, float B, float* s, int* n)
 {
     if (t > A && t < B) s[(*n)++] = t;
 }
 
 /* The meridian half-plane through direction (c, s) about the axis: the t where the ray
  * crosses it, NaN where it does not (parallel, or crossing the opposite half-plane). */
-inline float disp_meridian(float c, float s, float x0, float y0, float dx, float dy)
+static inline float disp_meridian(float c, float s, float x0, float y0, float dx, float dy)
 {
     float t = (s * x0 - c * y0) / (c * dy - s * dx);
     return c * (x0 + t * dx) + s * (y0 + t * dy) > 0.0f ? t : NAN;
@@ -769,7 +769,7 @@ inline float disp_meridian(float c, float s, float x0, float y0, float dx, float
 
 /* A root found at t, the side of the surface after it `below`: a hit (return 1) unless
  * an any-hit ray that started inside leaves the surface it starts on (header comment). */
-inline int disp_bisect_counts(int any, int from_outside, int below)
+static inline int disp_bisect_counts(int any, int from_outside, int below)
 {
     return !any || below || from_outside;
 }
@@ -803,7 +803,7 @@ inline int disp_bisect_cuts(const DispFrame* f, float A, float B, float* s)
 
 /* The piece [P0, P1]'s map from the ray to (X, Y, h) (DispPiece); 0 where the piece has no
  * surface (a partial cylinder's gap). */
-inline int disp_bisect_piece(const DispFrame* f, float P0, float P1, DispPiece* pc)
+static inline int disp_bisect_piece(const DispFrame* f, float P0, float P1, DispPiece* pc)
 {
     float W = (float)f->w, Hf = (float)f->h;
     if (TX_DISP_MAXMIP_TRAPEZOID && f->shape == DISP_TRAPEZOID) {   /* X = u W + 1/2, Y = (1 - v) H + 1/2 */
@@ -833,7 +833,7 @@ inline int disp_bisect_piece(const DispFrame* f, float P0, float P1, DispPiece* 
 
 /* Whether this program takes maxmip on the shape by disp_maxmip_bisect (spheres and
  * cylinders: TX_DISP_MAXMIP_CURVED; trapezoids: TX_DISP_MAXMIP_TRAPEZOID). */
-inline int disp_bisected(uint shape)
+static inline int disp_bisected(uint shape)
 {
     if (TX_DISP_MAXMIP_TRAPEZOID && shape == DISP_TRAPEZOID) return 1;
     return TX_DISP_MAXMIP_CURVED && (shape == DISP_SPHERE || shape == DISP_CYLINDER);
@@ -1041,7 +1041,7 @@ inline DispKdop disp_kdop(const DispFrame* f)
  * ones, so its slab bounds nothing while the origin lies strictly inside it and empties
  * the interval otherwise; an origin exactly on such a slab's plane gives NaN (0 inf),
  * which empties it too (a miss), as does any NaN input. */
-inline int disp_kdop_clip(const DispKdop* K, float4 mn, float4 mx, float* tn, float* tf)
+static inline int disp_kdop_clip(const DispKdop* K, float4 mn, float4 mx, float* tn, float* tf)
 {
     float4 t0 = (mn - K->w - K->ro) * K->ird, t1 = (mx + K->w - K->ro) * K->ird;
     float4 a = TX_MIN(t0, t1), b = TX_MAX(t0, t1);
@@ -1074,7 +1074,7 @@ inline void disp_sub_bound(__global const ushort* hts, const DispFrame* f, const
 }
 
 /* Positions (relative to P0) and normals of the sub-triangle s's corners. */
-inline void disp_sub_corners(const DispFrame* f, const DispSubTri* s, float3* c, float3* nv)
+static inline void disp_sub_corners(const DispFrame* f, const DispSubTri* s, float3* c, float3* nv)
 {
     float inv = 1.0f / s->k;
     float2 b[3] = { s->o, s->o + (float2)(inv, 0.0f), s->o + (float2)(0.0f, inv) };

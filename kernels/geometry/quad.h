@@ -52,8 +52,8 @@
  * pa x dir is interpolated from the accurate end values w0 = (P0 - org) x dir,
  * w1 = (P1 - org) x dir (it is linear in u). Updates *best = (t, u, v) and
  * returns 1 when u and v are in [0, 1] and t in (max(tmin, t_floor), best.t). */
-inline int quad_try_root(float u, float3 q00, float3 q10, float3 w0, float3 w1, float3 e00, float3 e11,
-                         float3 dir, float tmin, float t_floor, float3* best)
+static inline int quad_try_root(float u, float3 q00, float3 q10, float3 w0, float3 w1, float3 e00, float3 e11,
+                                float3 dir, float tmin, float t_floor, float3* best)
 {
     if (!(u >= 0.0f && u <= 1.0f)) return 0;
     float3 pa = q00 + u * (q10 - q00);
@@ -114,8 +114,8 @@ inline int quad_intersect_corners(float3 p0, float3 p1, float3 p2, float3 p3, fl
 
 /* quad_intersect_corners on a QuadVerts record. The corners version also serves the side
  * patches of displaced meshes' prism shells (geometry/displace.h disp_tri_clip). */
-inline int quad_intersect(__global const QuadVerts* qv, float3 org, float3 dir, float tmin, float tmax,
-                          float* t, float2* uv)
+static inline int quad_intersect(__global const QuadVerts* qv, float3 org, float3 dir, float tmin, float tmax,
+                                 float* t, float2* uv)
 {
     return quad_intersect_corners(quad_p0(qv), quad_p1(qv), quad_p2(qv), quad_p3(qv), org, dir, tmin, tmax, t, uv);
 }
@@ -130,7 +130,7 @@ inline int quad_intersect(__global const QuadVerts* qv, float3 org, float3 dir, 
  * d(u, v) (core/frame.h reparam_tangents). Where J is singular to float precision, or
  * not finite, dpdu and dpdv are the derivatives with respect to the bilinear (u, v)
  * instead. With a mirrored texture (det J < 0) dpdu x dpdv points opposite ng. */
-inline void quad_texcoords(__global const float* corner_uv, float2 param, float3 pu, float3 pv, Geom* g)
+static inline void quad_texcoords(__global const float* corner_uv, float2 param, float3 pu, float3 pv, Geom* g)
 {
     float u = param.x, v = param.y;
     __global const float* t = corner_uv;

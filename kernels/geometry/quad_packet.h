@@ -17,9 +17,9 @@
 
 /* quad_try_root for every lane: lanes of `m` whose root u gives a hit with t in
  * (max(tmin, t_floor), best_t) take it into *best_t, *best_u, *best_v; returns them. */
-inline pint quad_try_root_packet(pint m, pfloat u, pfloat3 q00, pfloat3 q10, pfloat3 w0, pfloat3 w1, pfloat3 e00,
-                                 pfloat3 e11, pfloat3 dir, pfloat tmin, pfloat t_floor, pfloat* best_t,
-                                 pfloat* best_u, pfloat* best_v)
+static inline pint quad_try_root_packet(pint m, pfloat u, pfloat3 q00, pfloat3 q10, pfloat3 w0, pfloat3 w1, pfloat3 e00,
+                                        pfloat3 e11, pfloat3 dir, pfloat tmin, pfloat t_floor, pfloat* best_t,
+                                        pfloat* best_u, pfloat* best_v)
 {
     m &= (u >= 0.0f) & (u <= 1.0f);
     if (!any(m)) return m;

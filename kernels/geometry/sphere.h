@@ -32,7 +32,7 @@
  * Product" (SIAM J. Sci. Comput. 26(6), 2005), Dot2. The error is at most
  * u |c| + gamma(6)^2 (|fh|^2 + r^2) (the same paper's bound, with the dropped
  * |fl|^2 and the rounding of 2 fh.fl, both below 8 u^2 |fh|^2). */
-inline float sphere_c(float3 fh, float3 fl, float r)
+static inline float sphere_c(float3 fh, float3 fl, float r)
 {
     float sx = fh.x * fh.x, sy = fh.y * fh.y, sz = fh.z * fh.z, rr = r * r;
     float err = fma(fh.x, fh.x, -sx) + fma(fh.y, fh.y, -sy) + fma(fh.z, fh.z, -sz) - fma(r, r, -rr)
@@ -104,7 +104,7 @@ inline int sphere_intersect(__global const Sphere* s, float3 org, float3 dir, fl
  * against the same computation's roots (FP_CONTRACT is off: both evaluate
  * identically); where they are equal, sphere_intersect took the near one if it
  * was ok. */
-inline int sphere_root_is_near(const SphereRay* sr, float t)
+static inline int sphere_root_is_near(const SphereRay* sr, float t)
 {
     if (sr->roots.t_near == sr->roots.t_far) return sr->roots.near_ok;
     return fabs(t - sr->roots.t_near) <= fabs(t - sr->roots.t_far);
@@ -120,8 +120,8 @@ inline int sphere_root_is_near(const SphereRay* sr, float t)
  * dpdu as 2pi r ay (the dP/dphi direction for phi = 0, scaled to the equator's length)
  * and dpdv = -pi z ax, the limit of dP/dtheta along phi = 0; dpdu x dpdv then still
  * points outward. */
-inline void sphere_tangents(float x, float y, float z, float rho, float r, float3 ax, float3 ay, float3 az,
-                            float3* dpdu, float3* dpdv)
+static inline void sphere_tangents(float x, float y, float z, float rho, float r, float3 ax, float3 ay, float3 az,
+                                   float3* dpdu, float3* dpdv)
 {
     float cos_phi = 1.0f, sin_phi = 0.0f;
     float3 dp_dphi = r * ay;                         /* pole: see above */

@@ -16,7 +16,7 @@
 #include "accel/packet_vec.h"
 
 /* tx_two_sum lane by lane: a + b, its rounding error added to *err. */
-inline pfloat pf_two_sum(pfloat a, pfloat b, pfloat* err)
+static inline pfloat pf_two_sum(pfloat a, pfloat b, pfloat* err)
 {
     pfloat s = a + b;
     pfloat bb = s - a;
@@ -25,7 +25,7 @@ inline pfloat pf_two_sum(pfloat a, pfloat b, pfloat* err)
 }
 
 /* sphere_c lane by lane (a radius per lane). */
-inline pfloat sphere_c_packet(pfloat3 fh, pfloat3 fl, pfloat r)
+static inline pfloat sphere_c_packet(pfloat3 fh, pfloat3 fl, pfloat r)
 {
     pfloat sx = fh.x * fh.x, sy = fh.y * fh.y, sz = fh.z * fh.z;
     pfloat rr = r * r;
@@ -39,8 +39,8 @@ inline pfloat sphere_c_packet(pfloat3 fh, pfloat3 fl, pfloat r)
 
 /* core/quadratic.h's stable_roots lane by lane: the roots of a t^2 + 2 b t + c (root =
  * sqrt(a disc)), sorted, and whether each may be taken (the small root c/q only where c_ok). */
-inline void stable_roots_packet(pfloat a, pfloat b, pfloat c, pfloat root, pint c_ok, pfloat* t_near,
-                                pfloat* t_far, pint* near_ok, pint* far_ok)
+static inline void stable_roots_packet(pfloat a, pfloat b, pfloat c, pfloat root, pint c_ok, pfloat* t_near,
+                                       pfloat* t_far, pint* near_ok, pint* far_ok)
 {
     pfloat q = -(b + copysign(root, b));
     pfloat t_small = c / q, t_large = q / a;
@@ -85,14 +85,14 @@ inline pint sphere_intersect_packet(const PacketRay* pr, __global const Sphere* 
 /* core/transcendental.h's tx_atan_poly, tx_atan2 and tx_hypot, and geometry/spherical.h's
  * azimuth_u, lane by lane: the same operations in the same order, the scalar branches as
  * lane selects, so each lane's result is the scalar function's, bit for bit. */
-inline pfloat atan_poly_packet(pfloat a)
+static inline pfloat atan_poly_packet(pfloat a)
 {
     pfloat z = a * a;
     return ((((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z
              - 3.33329491539e-1f) * z) * a + a;
 }
 
-inline pfloat atan2_packet(pfloat y, pfloat x)
+static inline pfloat atan2_packet(pfloat y, pfloat x)
 {
     pint nan = (x != x) | (y != y);
     pfloat ax = fabs(x), ay = fabs(y);
@@ -106,7 +106,7 @@ inline pfloat atan2_packet(pfloat y, pfloat x)
     return PSEL_F(nan, x + y, r);
 }
 
-inline pfloat hypot_packet(pfloat x, pfloat y)
+static inline pfloat hypot_packet(pfloat x, pfloat y)
 {
     pfloat ax = fabs(x), ay = fabs(y);
     pfloat m = PMAX(ax, ay);
@@ -119,7 +119,7 @@ inline pfloat hypot_packet(pfloat x, pfloat y)
     return PSEL_F((ax > FLT_MAX) | (ay > FLT_MAX), (pfloat)(INFINITY), r);
 }
 
-inline pfloat azimuth_u_packet(pfloat x, pfloat y)
+static inline pfloat azimuth_u_packet(pfloat x, pfloat y)
 {
     pfloat phi = atan2_packet(y, x);
     phi = PSEL_F(phi < 0.0f, phi + 2.0f * M_PI_F, phi);

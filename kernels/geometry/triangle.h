@@ -26,7 +26,7 @@ typedef struct {
 
 /* The shear's axes: kz the direction's largest component, kx and ky the others in the
  * order that keeps the winding. */
-inline void woop_axes(float3 dir, int* kx, int* ky, int* kz)
+static inline void woop_axes(float3 dir, int* kx, int* ky, int* kz)
 {
     float3 ad = abs3(dir);
     *kz = ad.x > ad.y ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
@@ -35,7 +35,7 @@ inline void woop_axes(float3 dir, int* kx, int* ky, int* kz)
     if (comp3(dir, *kz) < 0.0f) { int t = *kx; *kx = *ky; *ky = t; }   /* keep the winding */
 }
 
-inline WoopRay woop_setup(float3 org, float3 dir)
+static inline WoopRay woop_setup(float3 org, float3 dir)
 {
     int kx, ky, kz;
     woop_axes(dir, &kx, &ky, &kz);
@@ -167,8 +167,8 @@ inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, ui
 
 /* The triangle's corners' texture coordinates: its mesh's uvs where it has them, else
  * (0, 0), (1, 0), (0, 1). */
-inline void tri_corner_uvs(__global const TriShade* ts, __global const float* uvs, float2* uv0, float2* uv1,
-                           float2* uv2)
+static inline void tri_corner_uvs(__global const TriShade* ts, __global const float* uvs, float2* uv0, float2* uv1,
+                                  float2* uv2)
 {
     *uv0 = (float2)(0.0f, 0.0f); *uv1 = (float2)(1.0f, 0.0f); *uv2 = (float2)(0.0f, 1.0f);
     if (uvs != 0 && (ts->flags & TRI_HAS_UVS)) {

@@ -37,7 +37,7 @@
 #include "texture/texture.h"
 
 /* Red channel of the texture at transformed coordinates t, through its filter. */
-inline float bump_value(__global const half* texels, __global const TextureInfo* ti, TexCoord t)
+static inline float bump_value(__global const half* texels, __global const TextureInfo* ti, TexCoord t)
 {
     return texture_sample(texels, ti, t).x;
 }
@@ -140,7 +140,7 @@ inline float3 bump_turn_toward(float3 a, float3 b, float bound)
  * open hemisphere contains the short arc between any two of its points). This
  * is the spirit of Keller et al.'s normal clamping and of pbrt/Mitsuba's
  * "flip invalid normals", done as the smallest rotation that makes ns valid. */
-inline float3 shading_normal_facing(float3 ns, float3 ng, float3 wo)
+static inline float3 shading_normal_facing(float3 ns, float3 ng, float3 wo)
 {
     ns = bump_turn_toward(ns, ng, TX_NORMAL_MIN_COS);
     return bump_turn_toward(ns, wo, TX_MIN(TX_NORMAL_MIN_COS, TX_MAX(dot3(ng, wo), 0.0f)));

@@ -25,7 +25,7 @@
  *   finite, R.V <= 1 (up to rounding) keep it in [0, 1]; a result that is NaN or inf
  *   (NaN n, or R.V rounded above 1 with n near FLT_MAX) leaves the specular term out.
  * The term is then finite unless I / d^2 itself exceeds the float range. */
-inline float3 light_term(const Surface* s, float3 v, float3 lpos, float3 intensity)
+static inline float3 light_term(const Surface* s, float3 v, float3 lpos, float3 intensity)
 {
     if (!finite3(intensity)) return (float3)(0.0f);
     float3 p = vload3(0, s->p), nrm = vload3(0, s->ns);
@@ -59,7 +59,7 @@ inline float3 light_term(const Surface* s, float3 v, float3 lpos, float3 intensi
 /* The intensity light i contributes with in a sample: its own; with TX_ONE_LIGHT, where each
  * sample takes one of the n lights (core/sampler.h light_pick), n times its own, the picked
  * light standing for all n. */
-inline float3 light_intensity(float3 intensity, uint n)
+static inline float3 light_intensity(float3 intensity, uint n)
 {
 #if TX_ONE_LIGHT
     return (float)n * intensity;
@@ -77,13 +77,13 @@ inline float3 light_intensity(float3 intensity, uint n)
  * and unchanged bit for bit. */
 #define TX_MAX_RADIANCE 2.0e31f
 
-inline float clamp_radiance1(float x)
+static inline float clamp_radiance1(float x)
 {
     x = x <= TX_MAX_RADIANCE ? x : TX_MAX_RADIANCE;       /* NaN -> TX_MAX_RADIANCE */
     return x >= -TX_MAX_RADIANCE ? x : -TX_MAX_RADIANCE;
 }
 
-inline float3 clamp_radiance(float3 c)
+static inline float3 clamp_radiance(float3 c)
 {
     return (float3)(clamp_radiance1(c.x), clamp_radiance1(c.y), clamp_radiance1(c.z));
 }

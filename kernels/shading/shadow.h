@@ -24,7 +24,7 @@
 
 /* The shadow ray's origin for the surface point s (see above); *lifted says whether the
  * side test uses the shading normal. */
-inline float3 shadow_origin(const Surface* s, int* lifted)
+static inline float3 shadow_origin(const Surface* s, int* lifted)
 {
     float3 lift = vload3(0, s->lift);
     *lifted = dot3(lift, lift) > 16.0f * s->offset * s->offset;   /* beyond p's own rounding */
@@ -38,7 +38,7 @@ inline float3 shadow_origin(const Surface* s, int* lifted)
  * light at the shadow origin itself (d = 0) -- sees no light: 0, also without TX_SHADOWS,
  * so that shading never meets such a light (its I / d^2 would be 0 x inf or inf / inf).
  * Nor does a light on the far side of the surface (the side test). */
-inline int shadow_ray(const Surface* s, float3 org, int lifted, float3 lpos, float3* d)
+static inline int shadow_ray(const Surface* s, float3 org, int lifted, float3 lpos, float3* d)
 {
     *d = lpos - org;
     if (!ray_valid(org, *d, 0.0f, 1.0f)) return 0;
@@ -46,7 +46,7 @@ inline int shadow_ray(const Surface* s, float3 org, int lifted, float3 lpos, flo
 }
 
 /* 1 when the light at lpos is visible from the shadow origin org of s. */
-inline uchar light_visible(const Surface* s, float3 org, int lifted, float3 lpos, TX_GEOM_PARAMS)
+static inline uchar light_visible(const Surface* s, float3 org, int lifted, float3 lpos, TX_GEOM_PARAMS)
 {
     float3 d;
     if (!shadow_ray(s, org, lifted, lpos, &d)) return 0;
@@ -98,7 +98,7 @@ inline void shadow_origins_packet(const Surface* s, uint m, ShadowLanes* out)
  * Every sample's rays toward one light (every lane's the same), or with TX_ONE_LIGHT each
  * sample's ray toward the light it picked: one packet for the chunk, not one per light with
  * the other lights' lanes idle. */
-inline pint light_visible_lanes(const ShadowLanes* sl, uint m, const pfloat3* lights, TX_GEOM_PARAMS)
+static inline pint light_visible_lanes(const ShadowLanes* sl, uint m, const pfloat3* lights, TX_GEOM_PARAMS)
 {
     /* shadow_ray for every lane as one vector computation, the lights given as vectors
      * (pf3_splat of one light, or pf3_gather of each lane's), not written lane by lane into the

@@ -55,7 +55,7 @@ typedef struct {
     float shininess;        /* the exponent n */
 } MaterialTerms;
 
-inline void write_aovs(__global float* aov, uint gid, const Geom* g, float3 ns, float depth, uint prim, uint object)
+static inline void write_aovs(__global float* aov, uint gid, const Geom* g, float3 ns, float depth, uint prim, uint object)
 {
     __global float* a = aov + (size_t)gid * AOV_FLOATS;
     vstore2(g->uv, 0, a + AOV_UV);
@@ -69,7 +69,7 @@ inline void write_aovs(__global float* aov, uint gid, const Geom* g, float3 ns, 
     vstore3(g->dpdv, 0, a + AOV_DPDV);
 }
 
-inline void write_miss_aovs(__global float* aov, uint gid)
+static inline void write_miss_aovs(__global float* aov, uint gid)
 {
     __global float* a = aov + (size_t)gid * AOV_FLOATS;
     for (uint i = 0; i < AOV_FLOATS; ++i) a[i] = NAN;
@@ -280,8 +280,8 @@ TX_OUT_OF_LINE void surface_eval_v(float4 org4, float4 dir4, HitRec hit, const G
     surface_write(&sg, ng, ns, &mt, h->t * sqrt(dot3(dir, dir)), aov, gid, s);
 }
 
-inline void surface_eval(float3 org, float3 dir, HitRec hit, const Geom* pre, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
-                         __global float* aov, uint gid, Surface* s)
+static inline void surface_eval(float3 org, float3 dir, HitRec hit, const Geom* pre, TX_GEOM_PARAMS, TX_SURFACE_PARAMS,
+                                __global float* aov, uint gid, Surface* s)
 {
     surface_eval_v((float4)(org, 0.0f), (float4)(dir, 0.0f), hit, pre, TX_GEOM_ARGS, TX_SURFACE_ARGS, aov, gid, s);
 }

@@ -17,8 +17,8 @@
 #include "core/accurate.h"
 
 /* P' - P for the point p = b0 p0 + b1 p1 + b2 p2 with unit vertex normals n0, n1, n2. */
-inline float3 terminator_lift(float3 p, float3 p0, float3 p1, float3 p2, float3 n0, float3 n1, float3 n2,
-                              float b0, float b1, float b2)
+static inline float3 terminator_lift(float3 p, float3 p0, float3 p1, float3 p2, float3 n0, float3 n1, float3 n2,
+                                     float b0, float b1, float b2)
 {
     float d0 = TX_MIN(0.0f, dot3(p - p0, n0));
     float d1 = TX_MIN(0.0f, dot3(p - p1, n1));

@@ -30,9 +30,9 @@
  *     a third of that, with no division per pixel.) */
 #if TX_ADAPTIVE
 
-inline void adaptive_mark_one(__global const float4* accum, __global const float* sum_y2,
-                              __global const uint* active, uint i, __global uchar* stamp, uint tag,
-                              float threshold, float floor_y)
+static inline void adaptive_mark_one(__global const float4* accum, __global const float* sum_y2,
+                                     __global const uint* active, uint i, __global uchar* stamp, uint tag,
+                                     float threshold, float floor_y)
 {
     uint p = active ? active[i] : i;
     stamp[p] = adaptive_open(accum[p], sum_y2[p], threshold, floor_y) ? (uchar)tag : (uchar)0;
@@ -56,8 +56,8 @@ __kernel void adaptive_mark(__global const float4* accum, __global const float* 
  * count, and where `out` is not NULL their tile indices written from out[k] in order. A window
  * sliding along the row: column x's 3x1 neighbourhood (the rows above and below where they are
  * in the block and the tile, else row r itself) is read once for three pixels. */
-inline uint adaptive_row(__global const uchar* stamp, uchar t, uint r, uint rows, uint width, uint row0,
-                         uint block_rows, __global uint* out, uint k)
+static inline uint adaptive_row(__global const uchar* stamp, uchar t, uint r, uint rows, uint width, uint row0,
+                                uint block_rows, __global uint* out, uint k)
 {
     uint y = row0 + r, b = TX_MAX(block_rows, 1u);
     __global const uchar* s0 = stamp + r * width;

@@ -28,7 +28,7 @@ __kernel void occluded(__global const Ray* rays, __global uchar* out, uint n, TX
 /* Rays base .. base + TX_PACKET - 1 (those below n) of the buffer as a packet; act[j]: the
  * lanes to trace, the rays that pass ray_valid (the others answer a miss untraced, as in
  * bvh_closest and bvh_any). */
-inline void packet_of_rays(__global const Ray* rays, uint base, uint n, PacketRay* r, int* act)
+static inline void packet_of_rays(__global const Ray* rays, uint base, uint n, PacketRay* r, int* act)
 {
     for (uint j = 0; j < (uint)TX_PACKET; ++j) {
         float3 o = (float3)(0.0f), d = (float3)(0.0f, 0.0f, 1.0f);    /* lanes not traced: any valid ray */

@@ -12,7 +12,7 @@
  * per unit of ax and ay: constant across the cell in x where ay is, and vice versa.
  * Callers scale by the level's size (x = s w - 1/2 grows with s, y = (1 - t) h - 1/2
  * falls with t: (dB/dx w, -dB/dy h) = (dB/ds, dB/dt)). */
-inline float2 bilinear_gradient(float c00, float c10, float c01, float c11, float ax, float ay)
+static inline float2 bilinear_gradient(float c00, float c10, float c01, float c11, float ax, float ay)
 {
     return (float2)((c10 - c00) * (1.0f - ay) + (c11 - c01) * ay, (c01 - c00) * (1.0f - ax) + (c11 - c10) * ax);
 }

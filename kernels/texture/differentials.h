@@ -15,7 +15,7 @@
  * the pixel, so its footprint is 1/sqrt(spp) pixels across; at most 8x smaller
  * (pbrt-v4 RayIntegrator: max(1/8, 1/sqrt(spp))), the box filter of the samples
  * averages the rest. */
-inline float differential_scale(uint spp)
+static inline float differential_scale(uint spp)
 {
     return TX_MAX(0.125f, rsqrt((float)TX_MAX(spp, 1u)));
 }
@@ -27,8 +27,8 @@ inline float differential_scale(uint spp)
  * and dd/dpy = -2 up / H, and every ray starts at the eye. Igehy's transfer to
  * the plane: dp = t (dd - d (dd . n) / (d . n)): a differential, with no
  * cancellation of p - p' at large distances. d . n = 0 gives zero. */
-inline void camera_dp_dxy(__constant Camera* cam, uint width, uint height, float scale,
-                          float3 d, float t, float3 n, float3* dpdx, float3* dpdy)
+static inline void camera_dp_dxy(__constant Camera* cam, uint width, uint height, float scale,
+                                 float3 d, float t, float3 n, float3* dpdx, float3* dpdy)
 {
     float3 ddx = vload3(0, cam->right) * (2.0f * scale / (float)width);
     float3 ddy = vload3(0, cam->up) * (-2.0f * scale / (float)height);
@@ -42,7 +42,7 @@ inline void camera_dp_dxy(__constant Camera* cam, uint width, uint height, float
  * the least-squares solution of dpdu du + dpdv dv = dp (normal equations with
  * A = [dpdu dpdv]); a singular or non-finite system gives 0, derivatives are
  * clamped to +-TX_UV_DERIV_MAX. */
-inline TexCoord uv_differentials(float2 uv, float3 dpdu, float3 dpdv, float3 dpdx, float3 dpdy)
+static inline TexCoord uv_differentials(float2 uv, float3 dpdu, float3 dpdv, float3 dpdx, float3 dpdy)
 {
     float a00 = dot3(dpdu, dpdu), a01 = dot3(dpdu, dpdv), a11 = dot3(dpdv, dpdv);
     float det = tx_diff_prod(a00, a11, a01, a01);      /* core/accurate.h: no cancellation */

@@ -131,19 +131,19 @@ inline void map_tangents(int kind, Frame f, float3 p, float3 n, float3* dpdu, fl
 
 /* Affine UV transform, the 2x3 matrix of texray.mapping.UVTransform.matrix():
  * m0 = (a, b, c, d), m1 = (e, f):  u' = a u + b v + e,  v' = c u + d v + f. */
-inline float2 uv_transform(float2 uv, float4 m0, float2 m1)
+static inline float2 uv_transform(float2 uv, float4 m0, float2 m1)
 {
     return (float2)(m0.x * uv.x + m0.y * uv.y + m1.x, m0.z * uv.x + m0.w * uv.y + m1.y);
 }
 
 /* The linear part only: how derivatives (and any uv difference) transform. */
-inline float2 uv_transform_vector(float2 d, float4 m0)
+static inline float2 uv_transform_vector(float2 d, float4 m0)
 {
     return (float2)(m0.x * d.x + m0.y * d.y, m0.z * d.x + m0.w * d.y);
 }
 
 /* A TexCoord through the transform: uv by the affine map, derivatives by its linear part. */
-inline TexCoord texcoord_transform(TexCoord t, float4 m0, float2 m1)
+static inline TexCoord texcoord_transform(TexCoord t, float4 m0, float2 m1)
 {
     TexCoord r;
     r.uv = uv_transform(t.uv, m0, m1);

@@ -28,7 +28,7 @@ typedef struct { uint offset; int w, h; } TexLevel;     /* one MIP level: first 
  * the fly (no level table to upload): at most 31 steps, since a texture of at most
  * 2^31 texels a side has at most 32 levels (texray.texture.mip_pyramid); l is
  * clamped to 31 as well, so a corrupt level count cannot lengthen the loop. */
-inline TexLevel texture_level(__global const TextureInfo* ti, int l)
+static inline TexLevel texture_level(__global const TextureInfo* ti, int l)
 {
     uint off = ti->offset, w = ti->width, h = ti->height;
     int last = TX_MIN((int)ti->levels - 1, 31);
@@ -43,18 +43,18 @@ inline TexLevel texture_level(__global const TextureInfo* ti, int l)
 }
 
 /* The level after lv (the caller knows it exists). */
-inline TexLevel texture_next_level(TexLevel lv)
+static inline TexLevel texture_next_level(TexLevel lv)
 {
     TexLevel r = { lv.offset + (uint)lv.w * (uint)lv.h, TX_MAX(1, lv.w >> 1), TX_MAX(1, lv.h >> 1) };
     return r;
 }
 
-inline float4 texel_at(__global const half* texels, TexLevel lv, int x, int y)
+static inline float4 texel_at(__global const half* texels, TexLevel lv, int x, int y)
 {
     return vload_half4(lv.offset + (uint)y * (uint)lv.w + (uint)x, texels);
 }
 
-inline float4 texel(__global const half* texels, __global const TextureInfo* ti, int x, int y)
+static inline float4 texel(__global const half* texels, __global const TextureInfo* ti, int x, int y)
 {
     return vload_half4(ti->offset + (uint)y * ti->width + (uint)x, texels);
 }
@@ -99,7 +99,7 @@ inline float4 texture_bilinear(__global const half* texels, __global const Textu
 }
 
 /* The level-0 texel that uv falls in (wrap.h wrap_nearest; rows from the top). */
-inline float4 texture_nearest(__global const half* texels, __global const TextureInfo* ti, float2 uv)
+static inline float4 texture_nearest(__global const half* texels, __global const TextureInfo* ti, float2 uv)
 {
     TexLevel lv = texture_level(ti, 0);
     int mode = (int)ti->wrap;
@@ -111,7 +111,7 @@ inline float4 texture_nearest(__global const half* texels, __global const Textur
  * (u W, v H), i.e. the footprint in level-0 texels. duv_dx, duv_dy: derivatives of
  * the transformed coordinates. Zero derivatives give -inf, NaN gives NaN: the
  * lookups clamp both to level 0. */
-inline float texture_lod(__global const TextureInfo* ti, float2 duv_dx, float2 duv_dy)
+static inline float texture_lod(__global const TextureInfo* ti, float2 duv_dx, float2 duv_dy)
 {
     float2 s = (float2)((float)ti->width, (float)ti->height);
     float2 a = duv_dx * s, b = duv_dy * s;
@@ -119,7 +119,7 @@ inline float texture_lod(__global const TextureInfo* ti, float2 duv_dx, float2 d
 }
 
 /* lod clamped to [0, levels - 1]; NaN -> 0. */
-inline float texture_clamp_lod(__global const TextureInfo* ti, float lod)
+static inline float texture_clamp_lod(__global const TextureInfo* ti, float lod)
 {
     float last = (float)((int)ti->levels - 1);
     return lod > 0.0f ? TX_MIN(lod, last) : 0.0f;
@@ -223,7 +223,7 @@ inline float4 texture_anisotropic(__global const half* texels, __global const Te
 #endif
 
 /* The texture's filter at transformed coordinates t (uv and screen derivatives). */
-inline float4 texture_sample(__global const half* texels, __global const TextureInfo* ti, TexCoord t)
+static inline float4 texture_sample(__global const half* texels, __global const TextureInfo* ti, TexCoord t)
 {
 #if TX_FILTER_ANISOTROPIC && !TX_FILTER_NEAREST && !TX_FILTER_BILINEAR && !TX_FILTER_TRILINEAR
     return texture_anisotropic(texels, ti, t.uv, t.duv_dx, t.duv_dy);
@@ -253,7 +253,7 @@ inline float4 texture_eval(__global const half* texels, __global const TextureIn
 }
 
 /* The (unclamped) lod texture_eval(ti, tc) uses, for trilinear textures. */
-inline float texture_eval_lod(__global const TextureInfo* ti, TexCoord tc)
+static inline float texture_eval_lod(__global const TextureInfo* ti, TexCoord tc)
 {
     float4 m0 = vload4(0, ti->m0);
     return texture_lod(ti, uv_transform_vector(tc.duv_dx, m0), uv_transform_vector(tc.duv_dy, m0));
@@ -262,7 +262,7 @@ inline float texture_eval_lod(__global const TextureInfo* ti, TexCoord tc)
 /* Contract: the (du, dv) size, in the texture's transformed coordinates, of one texel
  * of the MIP level a lookup at `lod` reads first (level floor(clamped lod); level 0
  * for a texture without MIP levels, i.e. any filter but trilinear and anisotropic). */
-inline float2 texture_texel_size(__global const TextureInfo* ti, float lod)
+static inline float2 texture_texel_size(__global const TextureInfo* ti, float lod)
 {
     TexLevel lv = texture_level(ti, (int)texture_clamp_lod(ti, lod));
     return (float2)(1.0f / (float)lv.w, 1.0f / (float)lv.h);

@@ -1,5 +1,6 @@
 """The kernels build as strict OpenCL C 1.2 on every device, warning-free: with every
-feature compiled in (the generic program) and with none (the leanest variant). PoCL
+feature compiled in (the generic program) and with none (the leanest variant), with the
+stage kernels and without them (a fused render's program: kernels/texray.cl TX_STAGES). PoCL
 accepts OpenCL C 3.0 too; building as 1.2 with -Werror keeps what only a newer or
 laxer compiler accepts (the generic address space, implicit conversions it warns
 about) out of the code that must also build on NVIDIA, AMD and Intel drivers."""
@@ -13,8 +14,10 @@ from texray.device.features import Features, compile_options, cpu_avx512
 
 
 @pytest.mark.parametrize("which", ["generic", "lean", "packet8", "packet16", "packet16-avx512", "surface8",
-                                   "surface16"])
+                                   "surface16", "lean-fused", "packet16-fused", "surface16-fused"])
 def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
+    fused_only = which.endswith("-fused")          # the fused pipeline's program: no stage kernels
+    which = which.removesuffix("-fused")
     slow = {"generic": "over a minute", "packet8": "48 s", "surface8": "about a minute",
             "surface16": "about a minute"}     # cold, this Xeon
     if which in slow and "Intel" in any_rt.device.platform.name and not os.environ.get("TEXRAY_TEST_SLOW_BUILDS"):
@@ -40,8 +43,13 @@ def test_kernels_build_as_opencl_1_2_without_warnings(any_rt, which):
         f = Features(textures=True, specular=True, bump=True, filter_bilinear=True, max_lights=2, stack_size=32,
                      quads=True, spheres=True, triangles=True, cylinders=True, vertex_normals=which == "surface16")
         options = {**compile_options(f), "TX_PACKET": int(which.removeprefix("surface"))}
+    if fused_only:     # cylinders in surface16: the packet leaves' kinds lane by lane (geometry/dispatch.h)
+        options = {**options, "TX_STAGES": 0}
     prg = any_rt.program(options, extra_options=("-Werror",))
     names = set(prg.get_info(cl.program_info.KERNEL_NAMES).split(";"))
+    if fused_only:
+        assert names == {"render_fused"}
+        return
     assert {"raygen", "intersect", "surface", "shadow", "shade", "render_fused", "occluded"} <= names
     assert ("occluded_packet" in names) == which.startswith(("packet", "surface"))
     assert ({"adaptive_mark", "adaptive_count", "adaptive_scan", "adaptive_list"} <= names) == (which == "generic")

@@ -63,3 +63,45 @@ def test_unknown_pipeline_is_an_error(scenes_dir):
     scene = tx.Scene.load(scenes_dir / "bench/globe.toml")
     with pytest.raises(SceneError, match="pipeline"):
         render(scene, 8, 8, 1, pipeline="megakernel")
+
+
+def test_a_fused_render_builds_its_program_without_the_stage_kernels(device, scenes_dir, monkeypatch):
+    """On PoCL the fused pipeline's program leaves the stage kernels out, and with them every
+    helper only they call (kernels/texray.cl TX_STAGES, core/common.h); the staged pipeline's,
+    an AOV render's and the ray tracer's hold them, as every program on other devices does.
+    Their images are the same (test_fused_equals_staged, where the scalar geometry the fused
+    program leaves out, geometry/dispatch.h, is the staged pipeline's)."""
+    import dataclasses
+    import pyopencl as cl
+    from texray.compile import compile_scene
+    from texray.device import runtime
+    from texray.device.features import compile_options
+    rt = runtime(device)
+    built = []
+    program = type(rt).program
+
+    def recording(self, defines, extra_options=()):
+        prg = program(self, defines, extra_options)
+        built.append((defines["TX_STAGES"], set(prg.get_info(cl.program_info.KERNEL_NAMES).split(";"))))
+        return prg
+
+    monkeypatch.setattr(type(rt), "program", recording)
+    scene = tx.Scene.load(scenes_dir / "bench/mixed.toml")
+    stage_kernels = {"raygen", "intersect", "surface", "shadow", "shade", "occluded"}
+    fused_only = rt.kind == "pocl"
+    render(scene, 8, 6, 1, device=device)
+    assert built[-1][0] == (not fused_only) and bool(built[-1][1] & stage_kernels) == (not fused_only)
+    assert "render_fused" in built[-1][1]
+    render(scene, 8, 6, 1, device=device, adaptive=0.1)
+    assert built[-1][0] == (not fused_only) and bool(built[-1][1] & stage_kernels) == (not fused_only)
+    assert "adaptive_mark" in built[-1][1]
+    for kw in ({"pipeline": "stages"}, {"aovs": ("depth",)}):
+        render(scene, 8, 6, 1, device=device, **kw)
+        assert built[-1][0] == 1 and stage_kernels <= built[-1][1]
+    f = compile_scene(scene).features
+    assert compile_options(f, "pocl", stages=False)["TX_STAGES"] == 0
+    assert compile_options(f, "pocl", rays=True, stages=False)["TX_STAGES"] == 1
+    assert compile_options(dataclasses.replace(f, aovs=True), "pocl", stages=False)["TX_STAGES"] == 1
+    assert compile_options(f, "pocl")["TX_STAGES"] == 1                  # the whole program unless told
+    for kind in ("nvidia", "amd", "intel-cpu", "intel-gpu", "other", None):  # one program for both pipelines
+        assert compile_options(f, kind, stages=False)["TX_STAGES"] == 1

@@ -32,7 +32,7 @@ def _time_build(scene_path, device, specialize):
     features = cs.features if specialize else generic_features(cs.features)
     rt = runtime(device)
     t0 = time.perf_counter()
-    rt.program(compile_options(features, rt.kind))
+    rt.program(compile_options(features, rt.kind, stages=False))    # the fused pipeline's, as render builds it
     t_build = time.perf_counter() - t0
     # First launches: deferred per-kernel code generation. A second identical render
     # costs the same minus the code generation, so the difference is its cost. Both

@@ -224,12 +224,20 @@ def pixels_per_item(f: Features, device_kind: str | None, samples: int = PACKET_
 
 
 def compile_options(f: Features, device_kind: str | None = None,
-                    samples: int = PACKET_MIN_SAMPLES, rays: bool = False) -> dict[str, int]:
+                    samples: int = PACKET_MIN_SAMPLES, rays: bool = False, stages: bool = True) -> dict[str, int]:
     """``-D`` definitions for the kernels: the only place feature names become macros.
     ``device_kind`` (a Runtime's ``kind``), ``samples`` (per pixel and fused launch) and
     ``rays`` (a program for batches of rays: :class:`texray.renderer.trace.Tracer`) choose the
-    packet width (:func:`packet_width`); no device kind: no packets."""
+    packet width (:func:`packet_width`); no device kind: no packets. ``stages``: whether the
+    program holds the five stage kernels and the ray kernels (TX_STAGES; always with ``rays``
+    or AOVs, and on every device but PoCL). On PoCL a render of the fused pipeline alone
+    leaves them out, and with them the helpers only they call (core/common.h) and the scalar
+    geometry its packets make unneeded (geometry/dispatch.h): 7-8% fewer instructions in a
+    cold build. Elsewhere the two pipelines keep one program: Intel's compiler, which
+    vectorizes each program across work-items in its own way, rounded an instanced scene's
+    fused image apart from its staged one in the last bits when they were two programs."""
     return {
+        "TX_STAGES": int(stages or rays or f.aovs or device_kind != "pocl"),
         "TX_PACKET": packet_width(f, device_kind, samples, rays),
         "TX_AVX512": int(avx512(f, device_kind, rays)),
         "TX_MULTI_PIXEL": int(pixels_per_item(f, device_kind, samples) > 1),

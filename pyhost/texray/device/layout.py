@@ -341,7 +341,7 @@ def vector_views() -> str:
             if start % 16 or floats not in (3, 4):
                 raise AssertionError(f"{struct}.{view}: {floats} floats at offset {start}: not a float4 word")
             kind, swizzle = ("float4", "") if floats == 4 else ("float3", ".xyz")
-            lines.append(f"inline {kind} {prefix}_{view}(__global const {struct}* p) "
+            lines.append(f"static inline {kind} {prefix}_{view}(__global const {struct}* p) "
                          f"{{ return ((__global const float4*)p)[{start // 16}]{swizzle}; }}")
     return "\n".join(lines) + "\n"
 

@@ -167,7 +167,8 @@ def render_band(cs, key, camera, width, height, spp, rows, options):
     tile_pixels). Returns a dict: rows, rgb, aov, samples, render_s, worker, device."""
     t0 = time.perf_counter()
     rt, prg, local, _ = device_program(cs, options["device"], options["local_size"],
-                                    launch_samples(width, height, spp, options["adaptive"]))
+                                    launch_samples(width, height, spp, options["adaptive"]),
+                                    stages=options["pipeline"] == "stages")
     build_s = time.perf_counter() - t0
     up, _ = uploads.uploaded(rt, cs, key)
     out = render_rows(rt, prg, cs, camera, width, height, spp, rows, local=local, uploaded=up,

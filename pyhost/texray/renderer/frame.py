@@ -58,14 +58,15 @@ def launch_samples(width, height, spp, adaptive=None) -> int:
     return min(n, round_size(spp)) if adaptive is not None else n
 
 
-def device_program(cs, device, local_size, samples=0):
+def device_program(cs, device, local_size, samples=0, stages=True):
     """(runtime, program, work-group size, packet width) to render ``cs`` on ``device`` with
     fused launches of ``samples`` samples per pixel (:func:`launch_samples`): the device's
-    limits checked against the scene's textures, the scene's program built (or cached)."""
+    limits checked against the scene's textures, the scene's program built (or cached).
+    ``stages``: the program holds the stage kernels (the staged pipeline; AOVs always do)."""
     rt = runtime(device)
     if cs.texels is not None:
         check_device_limits(cs.texels.nbytes, list(cs.texture_names), rt.device.max_mem_alloc_size)
-    options = compile_options(cs.features, rt.kind, samples)
+    options = compile_options(cs.features, rt.kind, samples, stages=stages)
     packet = options["TX_PACKET"]
     return rt, rt.program(options), rt.local_size(local_size, packet), packet
 

@@ -117,7 +117,7 @@ def render(scene, width=640, height=480, spp=1, *, device=None, seed=0, jitter=T
         return Image(rgb=out.rgb, aov=out.aov, stats=s.stats)
     t_compiled = time.perf_counter()
     samples = launch_samples(s.width, s.height, s.spp, s.options["adaptive"])
-    rt, prg, local, packet = device_program(s.cs, device, local_size, samples)
+    rt, prg, local, packet = device_program(s.cs, device, local_size, samples, stages=s.options["pipeline"] == "stages")
     t_built = time.perf_counter()
     up, kept = uploads.uploaded(rt, s.cs, uploads.local_key(s.cs))
     t_uploaded = time.perf_counter()
