@@ -108,13 +108,13 @@ inline void quad_geom_packet(__global const QuadVerts* quads, __global const Qua
             for (int k = 0; k < 4; ++k) { lp[3 * k][j] = c[k].x; lp[3 * k + 1][j] = c[k].y; lp[3 * k + 2][j] = c[k].z; }
             for (int k = 0; k < 8; ++k) lt[k][j] = quad_shade[i].uv[k];
         }
-#define TX_QG_P(k) pf3((pfloat)(TX_LANES(lp[3 * (k)])), (pfloat)(TX_LANES(lp[3 * (k) + 1])), \
-                       (pfloat)(TX_LANES(lp[3 * (k) + 2])))
+#define TX_QG_P(k) pf3(PLOAD(lp[3 * (k)]), PLOAD(lp[3 * (k) + 1]), \
+                       PLOAD(lp[3 * (k) + 2]))
         p0 = TX_QG_P(0); p1 = TX_QG_P(1); p2 = TX_QG_P(2); p3 = TX_QG_P(3);
 #undef TX_QG_P
-        t0x = (pfloat)(TX_LANES(lt[0])); t0y = (pfloat)(TX_LANES(lt[1])); t1x = (pfloat)(TX_LANES(lt[2]));
-        t1y = (pfloat)(TX_LANES(lt[3])); t2x = (pfloat)(TX_LANES(lt[4])); t2y = (pfloat)(TX_LANES(lt[5]));
-        t3x = (pfloat)(TX_LANES(lt[6])); t3y = (pfloat)(TX_LANES(lt[7]));
+        t0x = PLOAD(lt[0]); t0y = PLOAD(lt[1]); t1x = PLOAD(lt[2]);
+        t1y = PLOAD(lt[3]); t2x = PLOAD(lt[4]); t2y = PLOAD(lt[5]);
+        t3x = PLOAD(lt[6]); t3y = PLOAD(lt[7]);
     }
     pfloat omv = 1.0f - v, omu = 1.0f - u;
     pfloat3 pu = pf3_add(pf3_scale(omv, pf3_sub(p1, p0)), pf3_scale(v, pf3_sub(p2, p3)));

@@ -157,10 +157,10 @@ inline void sphere_geom_packet(__global const Sphere* spheres, const uint* idx, 
             lx[0][j] = ax.x; lx[1][j] = ax.y; lx[2][j] = ax.z;
             lz[0][j] = az.x; lz[1][j] = az.y; lz[2][j] = az.z;
         }
-        c = pf3((pfloat)(TX_LANES(lc[0])), (pfloat)(TX_LANES(lc[1])), (pfloat)(TX_LANES(lc[2])));
-        r = (pfloat)(TX_LANES(lc[3]));
-        AX = pf3((pfloat)(TX_LANES(lx[0])), (pfloat)(TX_LANES(lx[1])), (pfloat)(TX_LANES(lx[2])));
-        AZ = pf3((pfloat)(TX_LANES(lz[0])), (pfloat)(TX_LANES(lz[1])), (pfloat)(TX_LANES(lz[2])));
+        c = pf3(PLOAD(lc[0]), PLOAD(lc[1]), PLOAD(lc[2]));
+        r = PLOAD(lc[3]);
+        AX = pf3(PLOAD(lx[0]), PLOAD(lx[1]), PLOAD(lx[2]));
+        AZ = pf3(PLOAD(lz[0]), PLOAD(lz[1]), PLOAD(lz[2]));
     }
     /* sphere_ray */
     pfloat3 fh, fl;

@@ -46,14 +46,16 @@ inline void triangle_geom_packet(__global const TriVerts* tris, __global const T
             tri_corner_uvs(tri_shade + i, uvs, &t0, &t1, &t2);
             lt[0][j] = t0.x; lt[1][j] = t0.y; lt[2][j] = t1.x; lt[3][j] = t1.y; lt[4][j] = t2.x; lt[5][j] = t2.y;
         }
-        /* read back lane by lane (TX_LANES), not as one vector load (PLOAD) spanning the lanes'
-         * scalar stores just made, which cannot be forwarded to it */
-#define TX_TG_P(k) pf3((pfloat)(TX_LANES(lp[3 * (k)])), (pfloat)(TX_LANES(lp[3 * (k) + 1])), \
-                       (pfloat)(TX_LANES(lp[3 * (k) + 2])))
+        /* one vector load (PLOAD) each, though it spans the lanes' scalar stores just made
+         * (not forwarded to it: it waits for them; frames within noise): built lane by lane
+         * (TX_LANES), these vectors and the other kinds' were a tenth of a cold build's
+         * instructions (accel/packet.h) */
+#define TX_TG_P(k) pf3(PLOAD(lp[3 * (k)]), PLOAD(lp[3 * (k) + 1]), \
+                       PLOAD(lp[3 * (k) + 2]))
         p0 = TX_TG_P(0); p1 = TX_TG_P(1); p2 = TX_TG_P(2);
 #undef TX_TG_P
-        t0x = (pfloat)(TX_LANES(lt[0])); t0y = (pfloat)(TX_LANES(lt[1])); t1x = (pfloat)(TX_LANES(lt[2]));
-        t1y = (pfloat)(TX_LANES(lt[3])); t2x = (pfloat)(TX_LANES(lt[4])); t2y = (pfloat)(TX_LANES(lt[5]));
+        t0x = PLOAD(lt[0]); t0y = PLOAD(lt[1]); t1x = PLOAD(lt[2]);
+        t1y = PLOAD(lt[3]); t2x = PLOAD(lt[4]); t2y = PLOAD(lt[5]);
     }
     pfloat b0 = 1.0f - b1 - b2;
     pfloat3 e1 = pf3_sub(p1, p0), e2 = pf3_sub(p2, p0);

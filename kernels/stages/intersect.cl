@@ -43,7 +43,7 @@ static inline void packet_of_rays(__global const Ray* rays, uint base, uint n, P
         }
         packet_set_lane(r, j, o, d, t0, t1);
     }
-    packet_setup(r, (pint)(TX_LANES(act)));
+    packet_setup(r, PLOAD(act));
 }
 
 /* `occluded` and `intersect` with TX_PACKET consecutive rays per work-item traced as one
@@ -55,7 +55,7 @@ TX_KERNEL_BODY void occluded_packet_body(uint base, __global const Ray* rays, __
     PacketRay r;
     int act[TX_PACKET], occ[TX_PACKET];
     packet_of_rays(rays, base, n, &r, act);
-    PSTORE(bvh_any_packet(TX_GEOM_ARGS, &r, (pint)(TX_LANES(act))), occ);
+    PSTORE(bvh_any_packet(TX_GEOM_ARGS, &r, PLOAD(act)), occ);
     for (uint j = 0; j < (uint)TX_PACKET && j < n - base; ++j)
         out[base + j] = act[j] && occ[j];
 }
@@ -75,7 +75,7 @@ TX_KERNEL_BODY void intersect_packet_body(uint base, __global const Ray* rays, _
     int act[TX_PACKET], hp[TX_PACKET];
     float ht[TX_PACKET], hb1[TX_PACKET], hb2[TX_PACKET];
     packet_of_rays(rays, base, n, &r, act);
-    PacketHit h = bvh_closest_packet(TX_GEOM_ARGS, &r, (pint)(TX_LANES(act)));
+    PacketHit h = bvh_closest_packet(TX_GEOM_ARGS, &r, PLOAD(act));
     PSTORE(h.t, ht); PSTORE(h.b1, hb1); PSTORE(h.b2, hb2); PSTORE(h.prim, hp);
     for (uint j = 0; j < (uint)TX_PACKET && j < n - base; ++j) {
         __global Hit* o = hits + base + j;
