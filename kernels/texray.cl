@@ -6,7 +6,9 @@
  * sample in one work-item -- the default pipeline; the five stage kernels (raygen,
  * intersect, surface, shadow, shade: stages/) do the same steps one per launch with
  * per-ray records between them in global memory, for timing each step alone (texray
- * bench) and for the AOV pass; `occluded` times any-hit traversal alone;
+ * bench) and for the AOV pass (compiled in with TX_STAGES: a fused render's program on PoCL
+ * leaves them out, and the helpers only they call, core/common.h); `occluded` times any-hit
+ * traversal alone;
  * adaptive_mark, _count, _scan and _list (stages/adaptive.cl, with TX_ADAPTIVE) decide which
  * pixels take adaptive sampling's next round. Both
  * pipelines call the same functions and give the same image, bit for bit.
