@@ -168,8 +168,9 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
             PSTORE((pfloat)(INFINITY), pr.range[1]);
             PSTORE(live, act);
         }
-        packet_setup(&pr, PLOAD(act));
-        PacketHit ph = bvh_closest_packet(TX_GEOM_ARGS, &pr, PLOAD(act));
+        pint traced = PLOAD(act);                    /* the lanes traced */
+        packet_setup(&pr, traced);
+        PacketHit ph = bvh_closest_packet(TX_GEOM_ARGS, &pr, traced);
         float ht[TX_CHUNK], hb1[TX_CHUNK], hb2[TX_CHUNK];
         int hp[TX_CHUNK];
         PSTORE(ph.t, ht); PSTORE(ph.b1, hb1); PSTORE(ph.b2, hb2); PSTORE(ph.prim, hp);
@@ -193,19 +194,19 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #define TX_GEOM_SOA ((GeomLanes*)0)
 #endif
 #if TX_SPHERES
-        pint on_sphere = PLOAD(act) & (hit_kind == (int)PRIM_SPHERE);
+        pint on_sphere = traced & (hit_kind == (int)PRIM_SPHERE);
         if (any(on_sphere))
             sphere_geom_packet(spheres, pidx, on_sphere, pf3(pr.ox, pr.oy, pr.oz), pf3(pr.dx, pr.dy, pr.dz), ph.t, TX_GEOM_AOS, TX_GEOM_SOA);
         pre_lanes |= on_sphere;
 #endif
 #if TX_QUADS
-        pint on_quad = PLOAD(act) & (hit_kind == (int)PRIM_QUAD);
+        pint on_quad = traced & (hit_kind == (int)PRIM_QUAD);
         if (any(on_quad))
             quad_geom_packet(quads, quad_shade, pidx, on_quad, ph.b1, ph.b2, TX_GEOM_AOS, TX_GEOM_SOA);
         pre_lanes |= on_quad;
 #endif
 #if TX_TRI_GEOM_PACKET
-        pint on_tri = PLOAD(act) & (hit_kind == (int)PRIM_TRIANGLE);
+        pint on_tri = traced & (hit_kind == (int)PRIM_TRIANGLE);
         if (any(on_tri))
             triangle_geom_packet(tris, tri_shade, uvs, pidx, on_tri, ph.b1, ph.b2, TX_GEOM_AOS, TX_GEOM_SOA);
         pre_lanes |= on_tri;
