@@ -304,3 +304,60 @@ def test_time_to_error_times_each_setting_by_its_median(monkeypatch):
     assert out["texray"]["spp"] == 4                         # rmse 0.025 <= 0.0286; 3 spp's 0.033 is not
     timed = [c for c in calls if c[1] == 1]
     assert len(timed) == 3 * len(out["tried"])
+
+
+def test_frames_alternate_texray_and_mitsuba_round_by_round(monkeypatch, tmp_path):
+    """compare_peers.frames times the renderers in alternating rounds (texray, Mitsuba, texray
+    with one light per sample; each an untimed frame, then the timed one), after a warm-up of
+    each, and its ratios are Mitsuba's time over
+    texray's, per round and of the medians: a machine whose load doubles halfway through the
+    run (every frame of the later rounds twice as slow) leaves every round's ratio alone, where
+    blocks timed one after the other (texray's frames, then Mitsuba's) would halve it. Renderers
+    faked; the time-to-error setting found is timed in rounds against Mitsuba's frames too."""
+    from texray.bench import compare_peers as cp
+    log = []
+    load = lambda: 2.0 if len(log) > 20 else 1.0                # the load doubles after round 3
+
+    def fake_render(scene, w, h, spp=1, device=None, seed=0, adaptive=None, light_sampling=None):
+        log.append("one" if light_sampling == "one" else "texray")
+        t = (0.010 if light_sampling == "one" else 0.020) * spp / 16 * load()
+        return SimpleNamespace(rgb=np.full((h, w, 3), 0.5) + (0.0 if spp >= 256 else 0.1 / spp),
+                               stats={"render_s": t, "total_s": t + 1e-3, "samples": spp * w * h})
+
+    class FakeMitsuba:
+        def __init__(self, scene, w, h, spp, seed=0, **kw):
+            self.rgb = np.full((h, w, 3), 0.5)
+            self.load_s, self.first_render_s, self.notes = 0.1, 0.2, []
+
+        def frame(self):
+            log.append("mitsuba")
+            return 0.030 * load()
+
+        def stats(self, times):
+            return {"render_s": cp.median_spread(times), "load_s": self.load_s,
+                    "first_render_s": self.first_render_s, "notes": []}
+
+    monkeypatch.setattr(cp.tx, "render", fake_render)
+    monkeypatch.setattr(cp.peers, "MitsubaFrames", FakeMitsuba)
+    monkeypatch.setattr(cp.peers, "mitsuba_render", lambda *a, **k: (np.full((4, 4, 3), 0.5), {}))
+    path = tmp_path / "two.toml"
+    path.write_text('[render]\nwidth = 4\nheight = 4\nspp = 16\n[camera]\neye = [0, 0, 3]\nlook_at = [0, 0, 0]\n'
+                    '[[lights]]\nposition = [1, 2, 2]\n[[lights]]\nposition = [-2, 1, 1]\n'
+                    '[[objects]]\ntype = "sphere"\nradius = 0.5\n')
+    f = cp.frames(path, None, repeat=6, tte=False)
+    assert log[:2] == ["texray", "one"]                            # the warm-ups (Mitsuba's in its constructor)
+    assert log[2:] == ["texray", "texray", "mitsuba", "mitsuba", "one", "one"] * 6   # then the rounds
+    assert f["round_ratios"]["min"] == f["round_ratios"]["max"] == pytest.approx(1.5)
+    assert f["texray_one_light"]["round_ratios"]["median"] == pytest.approx(3.0)
+    assert f["mitsuba"]["render_s"]["median"] / f["texray"]["render_s"]["median"] == pytest.approx(1.5)
+    assert f["texray"]["prep_s"]["n"] == 6                          # host time of the default frames only
+
+    log.clear()
+    out = cp.time_to_error(cp.peers.comparable_scene(tx.Scene.load(path))[0], 4, 4, 16, None,
+                           np.full((4, 4, 3), 0.5) + 0.1 / 16, 0.030, repeat=3, mitsuba=FakeMitsuba(None, 4, 4, 16))
+    best = out["texray"]
+    assert best["spp"] == 16 and best.get("light_sampling") == "one"   # the fastest setting at the error
+    assert log[-12:] == ["one", "one", "mitsuba", "mitsuba"] * 3   # timed again, in rounds with Mitsuba's
+    assert best["render_s"] == pytest.approx(0.020) and out["mitsuba_s"] == pytest.approx(0.060)
+    assert out["round_ratios"]["median"] == pytest.approx(3.0)
+    assert best["scan_render_s"] == pytest.approx(0.020)           # its time in the search

@@ -18,7 +18,12 @@
 
 Every figure is a median over ``repeat`` runs after one warm-up (each time-to-error setting's
 time too: one run of a 20 ms frame caught a 45% hiccup and picked a slower setting); ratios
-are stated with their sense.
+are stated with their sense. texray's and Mitsuba's frames are timed in alternating rounds
+(:func:`paired`), and so is the time-to-error setting found, against Mitsuba's frames: on a
+shared machine the load changes by the minute, and a ratio of two blocks timed minutes apart
+measured the load as much as the renderers (the textured meshes 0.84-1.19 in three runs of one
+commit, 2026-12-07). Each renderer's timed frame follows an untimed one of its own
+(:func:`paired` says why).
 """
 from __future__ import annotations
 
@@ -50,10 +55,13 @@ def rmse(a, b):
     return float(np.sqrt(np.mean(d * d)))
 
 
-def time_to_error(cmp, w, h, s, device, mitsuba_rgb, mitsuba_s, repeat=1):
+def time_to_error(cmp, w, h, s, device, mitsuba_rgb, mitsuba_s, repeat=1, mitsuba=None):
     """Mitsuba's error at ``s`` spp and the settings texray needs to reach it (see the
     module docstring); per setting the median time of ``repeat`` renders after a warm-up
-    (the same seed: the same image each time)."""
+    (the same seed: the same image each time). With ``mitsuba`` (a :class:`peers.MitsubaFrames`
+    of the same scene at ``s`` spp), the fastest setting is timed again against Mitsuba's frames
+    in alternating rounds (:func:`paired`): ``mitsuba_s`` and the setting's ``render_s`` are then
+    those rounds' medians (``scan_render_s``: its time in the search)."""
     mi_ref, _ = peers.mitsuba_render(cmp, w, h, REF_SPP, seed=7)
     target = rmse(mitsuba_rgb, mi_ref)
     ref = tx.render(cmp, w, h, REF_SPP, device=device, seed=7).rgb
@@ -69,7 +77,45 @@ def time_to_error(cmp, w, h, s, device, mitsuba_rgb, mitsuba_s, repeat=1):
                       "mean_spp": r.stats["samples"] / (w * h), "rmse": rmse(r.rgb, ref)})
     reached = [t for t in tried if t["rmse"] <= target]
     best = min(reached, key=lambda t: t["render_s"]) if reached else None
-    return {"target_rmse": target, "ref_spp": REF_SPP, "mitsuba_s": mitsuba_s, "texray": best, "tried": tried}
+    out = {"target_rmse": target, "ref_spp": REF_SPP, "mitsuba_s": mitsuba_s, "texray": best, "tried": tried}
+    if best is not None and mitsuba is not None:
+        kw = {k: best[k] for k in ("spp", "adaptive", "light_sampling") if k in best}
+        times = paired({"texray": lambda: tx.render(cmp, w, h, device=device, seed=1, **kw).stats["render_s"],
+                        "mitsuba": mitsuba.frame}, repeat)
+        best = out["texray"] = {**best, "scan_render_s": best["render_s"],
+                                "render_s": median_spread(times["texray"])["median"]}
+        out["mitsuba_s"] = median_spread(times["mitsuba"])["median"]
+        out["round_ratios"] = median_spread(round_ratios(times["mitsuba"], times["texray"]))
+    return out
+
+
+def paired(frames: dict, rounds) -> dict:
+    """Alternating rounds: each round renders, for every function of ``frames`` in order (name
+    -> a call that renders one frame and returns its seconds), one frame untimed and then the
+    frame it times; the seconds per name. On this shared machine the load moves by 10-50% from
+    one minute to the next: timed in blocks, one renderer's frames can fall in a quiet minute
+    and the other's in a busy one, and a ratio between them moves with the load; timed in
+    rounds, a change of load falls on both. The untimed frame first: a texray frame right after
+    a Mitsuba frame took 2.5-3 ms more than the next one (bumped brick wall, 512x256, 4 spp:
+    medians 21.4 / 21.9 / 21.0 against 18.5 / 19.3 / 18.6 ms in three sets of five rounds;
+    Mitsuba's first and second frames took the same), so each renderer is timed as it runs
+    frame after frame, as in a block."""
+    times = {k: [] for k in frames}
+    for _ in range(max(int(rounds), 1)):
+        for k, f in frames.items():
+            f()
+            times[k].append(float(f()))
+    return times
+
+
+def round_ratios(theirs, ours):
+    """The peer's time over texray's, round by round (> 1: texray faster)."""
+    return [a / b for a, b in zip(theirs, ours)]
+
+
+def span(v, width=9):
+    """A median_spread's range, "min-max" ("-" where there is none: a run from before the rounds)."""
+    return (f"{v['min']:.2f}-{v['max']:.2f}" if v else "-").rjust(width)
 
 
 def cell(v, fmt=".2f", width=22):
@@ -96,26 +142,48 @@ def rays(device, triangles, size, repeat, threads_list, measured=None):
 
 
 def frames(path, device, repeat, width=None, height=None, spp=None, tte=True):
+    """One scene's frames, texray's and Mitsuba's timed in alternating rounds (:func:`paired`)
+    after a warm-up of each: ``repeat`` rounds of texray's frames, Mitsuba's and, with several
+    lights, texray's with one light per sample (each an untimed frame and a timed one)."""
     scene = tx.Scene.load(path)
     rs = getattr(scene, "render_settings", {}) or {}
     w, h, s = width or rs.get("width", 512), height or rs.get("height", 384), spp or rs.get("spp", 16)
     cmp, notes = peers.comparable_scene(scene)
+    several = len(cmp.lights) >= 2              # Mitsuba's estimator: one light per camera sample
     first = tx.render(cmp, w, h, s, device=device)
-    runs = [tx.render(cmp, w, h, s, device=device) for _ in range(repeat)]
-    ours = {"render_s": median_spread([r.stats["render_s"] for r in runs]),
-            "prep_s": median_spread([r.stats["total_s"] - r.stats["render_s"] for r in runs]),
-            "first_total_s": first.stats["total_s"]}
-    rgb, st = peers.mitsuba_render(cmp, w, h, s, repeat=repeat)
-    diff = peers.compare_images(runs[-1].rgb, rgb)
-    out = {"scene": str(path), "width": w, "height": h, "spp": s, "texray": ours, "mitsuba": st,
-           "diff": diff, "notes": notes + st["notes"]}
-    if len(cmp.lights) >= 2:                 # Mitsuba's estimator: one light per camera sample
+    mitsuba = peers.MitsubaFrames(cmp, w, h, s)
+    if several:
         tx.render(cmp, w, h, s, device=device, light_sampling="one")
-        one = [tx.render(cmp, w, h, s, device=device, light_sampling="one") for _ in range(repeat)]
-        out["texray_one_light"] = {"render_s": median_spread([r.stats["render_s"] for r in one]),
-                                   "diff": peers.compare_images(one[-1].rgb, rgb)}
+    last, prep = {}, {"all": [], "one": []}        # the last frame and host times per light sampling
+
+    def texray_frame(sampling="all"):
+        def once():
+            kw = {"light_sampling": "one"} if sampling == "one" else {}
+            r = last[sampling] = tx.render(cmp, w, h, s, device=device, **kw)
+            prep[sampling].append(r.stats["total_s"] - r.stats["render_s"])
+            return r.stats["render_s"]
+        return once
+
+    calls = {"texray": texray_frame(), "mitsuba": mitsuba.frame}
+    if several:
+        calls["texray_one_light"] = texray_frame("one")
+    times = paired(calls, repeat)
+    ours = {"render_s": median_spread(times["texray"]),
+            "prep_s": median_spread(prep["all"][1::2]),          # the timed frames' (paired: every second)
+            "first_total_s": first.stats["total_s"]}
+    st = mitsuba.stats(times["mitsuba"])
+    rgb = mitsuba.rgb
+    out = {"scene": str(path), "width": w, "height": h, "spp": s, "texray": ours, "mitsuba": st,
+           "round_ratios": median_spread(round_ratios(times["mitsuba"], times["texray"])),
+           "diff": peers.compare_images(last["all"].rgb, rgb), "notes": notes + st["notes"]}
+    if several:
+        out["texray_one_light"] = {"render_s": median_spread(times["texray_one_light"]),
+                                   "round_ratios": median_spread(round_ratios(times["mitsuba"],
+                                                                              times["texray_one_light"])),
+                                   "diff": peers.compare_images(last["one"].rgb, rgb)}
     if tte:
-        out["time_to_error"] = time_to_error(cmp, w, h, s, device, rgb, st["render_s"]["median"], repeat)
+        out["time_to_error"] = time_to_error(cmp, w, h, s, device, rgb, st["render_s"]["median"], repeat,
+                                             mitsuba=mitsuba)
     return out
 
 
@@ -160,31 +228,36 @@ def bench_peers(device, repeat=5, triangles=1_000_000, size=1024, scenes=(), thr
                 skipped.append(f"{Path(p).stem}: {e}")
         result["skipped"] = skipped
         out.write(f"\nFrames: ambient 0, specular 0 in both; Mitsuba {av['mitsuba']['variant']} direct, "
-                  "lights x pi; median render s (min-max)\n")
-        out.write(f"| {'scene':<24} | {'texray s':>19} | {'Mitsuba s':>19} | {'ratio':>5} | {'Mi load s':>9} |"
-                  f" {'Mi 1st s':>8} | {'RMSE':>7} | {'rel mean':>8} | {'rel |d|':>7} | {'px>0.05':>7} |\n")
-        out.write(f"|{'-' * 26}|{'-' * 20}:|{'-' * 20}:|{'-' * 6}:|{'-' * 10}:|{'-' * 9}:|{'-' * 8}:|{'-' * 9}:|"
-                  f"{'-' * 8}:|{'-' * 8}:|\n")
+                  f"lights x pi; median render s (min-max) of {repeat} alternating rounds (a frame of each per round)\n")
+        out.write(f"| {'scene':<24} | {'texray s':>19} | {'Mitsuba s':>19} | {'ratio':>5} | {'rounds':>9} |"
+                  f" {'Mi load s':>9} | {'Mi 1st s':>8} | {'RMSE':>7} | {'rel mean':>8} | {'rel |d|':>7} | {'px>0.05':>7} |\n")
+        out.write(f"|{'-' * 26}|{'-' * 20}:|{'-' * 20}:|{'-' * 6}:|{'-' * 10}:|{'-' * 10}:|{'-' * 9}:|{'-' * 8}:|"
+                  f"{'-' * 9}:|{'-' * 8}:|{'-' * 8}:|\n")
         for f in result["frames"]:
             o, m, d = f["texray"]["render_s"], f["mitsuba"]["render_s"], f["diff"]
             name = f"{Path(f['scene']).stem} {f['width']}x{f['height']} {f['spp']}spp"
             out.write(f"| {name:<24} | {cell(o, '.3f', 19)} | {cell(m, '.3f', 19)} | {m['median'] / o['median']:5.2f} |"
+                      f" {span(f.get('round_ratios'))} |"
                       f" {f['mitsuba']['load_s']:9.3f} | {f['mitsuba']['first_render_s']:8.3f} | {d['rmse']:7.4f} |"
                       f" {100 * d['rel_mean_diff']:7.2f}% | {100 * d['rel_mean_abs']:6.2f}% |"
                       f" {100 * d['frac_pixels_over']:6.2f}% |\n")
             if "texray_one_light" in f:           # the same scene, Mitsuba's estimator
-                o, d = f["texray_one_light"]["render_s"], f["texray_one_light"]["diff"]
+                one = f["texray_one_light"]
+                o, d = one["render_s"], one["diff"]
                 name = "  1 light per sample"
                 out.write(f"| {name:<24} | {cell(o, '.3f', 19)} | {cell(m, '.3f', 19)} | {m['median'] / o['median']:5.2f} |"
-                          f" {'':>9} | {'':>8} | {d['rmse']:7.4f} | {100 * d['rel_mean_diff']:7.2f}% |"
-                          f" {100 * d['rel_mean_abs']:6.2f}% | {100 * d['frac_pixels_over']:6.2f}% |\n")
-        out.write("ratio = Mitsuba / texray render time (> 1: texray faster); '1 light per sample': texray with "
-                  "light_sampling='one', Mitsuba's estimator (equal work)\n")
+                          f" {span(one.get('round_ratios'))} | {'':>9} | {'':>8} | {d['rmse']:7.4f} |"
+                          f" {100 * d['rel_mean_diff']:7.2f}% | {100 * d['rel_mean_abs']:6.2f}% |"
+                          f" {100 * d['frac_pixels_over']:6.2f}% |\n")
+        out.write("ratio = Mitsuba / texray median render time (> 1: texray faster); rounds: the ratio's range over "
+                  "the rounds; '1 light per sample': texray with light_sampling='one', Mitsuba's estimator "
+                  "(equal work)\n")
         out.write(f"\nTime to Mitsuba's error at the scene's spp (each renderer's RMSE against its own {REF_SPP}-spp "
-                  "image); texray's fastest setting that reaches it\n")
+                  "image); texray's fastest setting that reaches it, then timed in alternating rounds with "
+                  "Mitsuba's frames\n")
         out.write(f"| {'scene':<24} | {'target RMSE':>11} | {'Mitsuba s':>9} | {'texray s':>8} | {'ratio':>5} |"
-                  f" {'texray setting':<26} |\n")
-        out.write(f"|{'-' * 26}|{'-' * 12}:|{'-' * 10}:|{'-' * 9}:|{'-' * 6}:|{'-' * 28}|\n")
+                  f" {'rounds':>9} | {'texray setting':<26} |\n")
+        out.write(f"|{'-' * 26}|{'-' * 12}:|{'-' * 10}:|{'-' * 9}:|{'-' * 6}:|{'-' * 10}:|{'-' * 28}|\n")
         for f in result["frames"]:
             t = f.get("time_to_error")
             if t is None:
@@ -193,14 +266,14 @@ def bench_peers(device, repeat=5, triangles=1_000_000, size=1024, scenes=(), thr
             b = t["texray"]
             if b is None:
                 out.write(f"| {name:<24} | {t['target_rmse']:11.5f} | {t['mitsuba_s']:9.3f} | {'-':>8} | {'-':>5} |"
-                          f" {'not reached':<26} |\n")
+                          f" {'-':>9} | {'not reached':<26} |\n")
                 continue
             setting = (f"{b['spp']} spp" if "adaptive" not in b else
                        f"adaptive {b['adaptive']:g}, <= {b['spp']} spp ({b['mean_spp']:.1f})")
             if b.get("light_sampling") == "one":
                 setting += ", 1 light"
             out.write(f"| {name:<24} | {t['target_rmse']:11.5f} | {t['mitsuba_s']:9.3f} | {b['render_s']:8.3f} |"
-                      f" {t['mitsuba_s'] / b['render_s']:5.2f} | {setting:<26} |\n")
+                      f" {t['mitsuba_s'] / b['render_s']:5.2f} | {span(t.get('round_ratios'))} | {setting:<26} |\n")
         out.write("ratio = Mitsuba's time / texray's time to the same error (> 1: texray faster)\n")
         for line in skipped:
             out.write(f"  not compared: {line}\n")

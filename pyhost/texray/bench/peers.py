@@ -15,7 +15,8 @@ which conventions were undone to make the two comparable:
 * :func:`mitsuba_spec` -- a texray :class:`~texray.scene.Scene` as plain numpy
   data in Mitsuba's conventions (pure Python: testable without Mitsuba);
   :func:`mitsuba_scene_dict` turns it into a ``mi.load_dict`` dictionary.
-* :func:`mitsuba_render` -- render a scene with Mitsuba's ``direct`` integrator.
+* :func:`mitsuba_render` -- render a scene with Mitsuba's ``direct`` integrator;
+  :class:`MitsubaFrames` -- the same scene loaded once, timed frame by frame.
 * :func:`compare_images` -- RMSE, mean absolute and relative differences.
 
 Conventions undone (Mitsuba): Lambert's 1/pi (the point lights' intensity is
@@ -32,7 +33,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import statistics
 import time
 import warnings
 from concurrent.futures import ThreadPoolExecutor
@@ -42,6 +42,7 @@ import numpy as np
 from ..errors import SceneError
 from ..scene import Cylinder, Material, Mesh, Quad, Scene, Sphere, Texture
 from ..scene.shape import materials_of
+from .suite import median_spread
 
 MITSUBA_VARIANT = "llvm_ad_rgb"
 FALLBACK_VARIANT = "scalar_rgb"
@@ -56,10 +57,6 @@ class PeerMissing(ImportError):
 
 class Unsupported(SceneError):
     """A scene feature Mitsuba cannot represent identically (the message names the object)."""
-
-
-def _median_spread(values):
-    return {"median": statistics.median(values), "min": min(values), "max": max(values), "n": len(values)}
 
 
 # --------------------------------------------------------------------------- availability
@@ -227,8 +224,8 @@ def embree_rays(positions, faces, origins, dirs, shadow_origins=None, shadow_dir
         prim = np.concatenate([r["primID"] for r in res]).astype(np.int64)
         prim[prim < 0] = -1
         out = {"peer": "embree", "threads": threads, "triangles": int(len(f)), "rays": int(len(origins)),
-               "build_s": _median_spread(builds), "hit_fraction": float((prim >= 0).mean()),
-               "primary_mrays_s": _median_spread(primary),
+               "build_s": median_spread(builds), "hit_fraction": float((prim >= 0).mean()),
+               "primary_mrays_s": median_spread(primary),
                "notes": ["same float32 mesh and rays as texray; Embree times are wall clock around "
                          "embreex's scene.run (numpy in/out included), texray's are device kernel time",
                          f"rays split over {threads} Python thread(s); embreex traces one ray at a time"]}
@@ -254,7 +251,7 @@ def embree_rays(positions, faces, origins, dirs, shadow_origins=None, shadow_dir
                     shadow.append(len(so) / dt * 1e-6)
             occluded = np.concatenate(occ) >= 0
             out.update({"shadow_rays": int(len(so)), "shadow_occluded_fraction": float(occluded.mean()),
-                        "shadow_mrays_s": _median_spread(shadow)})
+                        "shadow_mrays_s": median_spread(shadow)})
             if texray_occluded is not None:
                 out.setdefault("agreement", {})["shadow_agree"] = float(
                     (np.asarray(texray_occluded, bool) == occluded).mean())
@@ -551,6 +548,50 @@ def mitsuba_scene_dict(spec) -> dict:
     return d
 
 
+class MitsubaFrames:
+    """A scene loaded into Mitsuba once, rendered frame by frame on demand: the bench times its
+    frames between texray's (:func:`texray.bench.compare_peers.frames`: one frame of each
+    renderer per round), so that a change of the shared machine's load falls on both and the
+    ratio of one run is measured under one load, not texray's frames in one minute and
+    Mitsuba's in the next.
+
+    ``load_s``: scene conversion + ``mi.load_dict`` (BVH build and texture upload);
+    ``first_render_s``: the first frame (JIT compilation, or its disk cache); ``rgb``: the last
+    frame, float32 (H, W, 3), linear, background composited, directly comparable with texray's
+    render of :func:`comparable_scene` ``(scene)``; ``notes``: the equal-work conventions.
+    """
+
+    def __init__(self, scene: Scene, width, height, spp, seed=0, variant=MITSUBA_VARIANT,
+                 sampler="multijitter"):
+        self._mi, _ = _import_mitsuba()
+        self.variant, self.variant_note = mitsuba_variant(variant)
+        self.width, self.height, self.spp, self.seed = width, height, spp, seed
+        self._spec = mitsuba_spec(scene, width, height, spp, seed, sampler)
+        self.notes = self._spec["notes"]
+        t0 = time.perf_counter()
+        self._scene = self._mi.load_dict(mitsuba_scene_dict(self._spec))
+        self.load_s = time.perf_counter() - t0
+        self.first_render_s = self.frame()
+
+    def frame(self) -> float:
+        """Render one frame (the same seed: the same image each time); its wall-clock seconds."""
+        t = time.perf_counter()
+        img = np.array(self._mi.render(self._scene, spp=self.spp, seed=self.seed), dtype=np.float32)  # evaluated
+        dt = time.perf_counter() - t
+        rgb = img[..., :3] + (1.0 - img[..., 3:4]) * self._spec["background"].astype(np.float32)
+        self.rgb = np.ascontiguousarray(rgb, dtype=np.float32)
+        return dt
+
+    def stats(self, times) -> dict:
+        """The stats dict of :func:`mitsuba_render` for frames that took ``times`` seconds."""
+        frame = median_spread(times) if times else None
+        return {"peer": "mitsuba", "variant": self.variant, "variant_note": self.variant_note,
+                "version": self._mi.__version__, "width": self.width, "height": self.height, "spp": self.spp,
+                "load_s": self.load_s, "first_render_s": self.first_render_s, "render_s": frame,
+                "msamples_s": self.width * self.height * self.spp / frame["median"] * 1e-6 if frame else None,
+                "notes": self.notes}
+
+
 def mitsuba_render(scene: Scene, width, height, spp, seed=0, repeat=1, variant=MITSUBA_VARIANT,
                    sampler="multijitter"):
     """Render ``scene`` with Mitsuba 3 (``direct`` integrator, hard shadows) at ``spp`` samples.
@@ -559,34 +600,11 @@ def mitsuba_render(scene: Scene, width, height, spp, seed=0, repeat=1, variant=M
     comparable with texray's render of :func:`comparable_scene` ``(scene)``. stats: variant,
     ``load_s`` (scene conversion + ``mi.load_dict``: BVH build and texture upload), ``first_render_s``
     (includes JIT compilation, or its disk cache), ``render_s`` (median/min/max over ``repeat``
-    further renders), ``msamples_s`` and the equal-work ``notes``.
+    further renders), ``msamples_s`` and the equal-work ``notes`` (:class:`MitsubaFrames`).
     """
-    mi, dr = _import_mitsuba()
-    chosen, why = mitsuba_variant(variant)
-    spec = mitsuba_spec(scene, width, height, spp, seed, sampler)
-    t0 = time.perf_counter()
-    ms = mi.load_dict(mitsuba_scene_dict(spec))
-    t1 = time.perf_counter()
-
-    def once():
-        img = mi.render(ms, spp=spp, seed=seed)
-        return np.array(img, dtype=np.float32)           # forces evaluation
-
-    img = once()
-    t2 = time.perf_counter()
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        img = once()
-        times.append(time.perf_counter() - t)
-    rgb = img[..., :3] + (1.0 - img[..., 3:4]) * spec["background"].astype(np.float32)
-    frame = _median_spread(times) if times else None
-    stats = {"peer": "mitsuba", "variant": chosen, "variant_note": why, "version": mi.__version__,
-             "width": width, "height": height, "spp": spp, "load_s": t1 - t0, "first_render_s": t2 - t1,
-             "render_s": frame,
-             "msamples_s": width * height * spp / frame["median"] * 1e-6 if frame else None,
-             "notes": spec["notes"]}
-    return np.ascontiguousarray(rgb, dtype=np.float32), stats
+    m = MitsubaFrames(scene, width, height, spp, seed, variant, sampler)
+    times = [m.frame() for _ in range(repeat)]
+    return m.rgb, m.stats(times)
 
 
 # --------------------------------------------------------------------------- images
