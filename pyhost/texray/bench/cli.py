@@ -72,6 +72,8 @@ def main(argv=None):
     ap.add_argument("--spp", type=int, default=None, help="spp for every suite scene (default: each scene's)")
     ap.add_argument("--no-generic", action="store_true", help="skip the generic-program comparison")
     ap.add_argument("--no-build", action="store_true", help="skip cold/warm build timing")
+    ap.add_argument("--build-repeat", type=int, default=3,
+                    help="fresh caches per cold/warm build figure, their median (default 3)")
     ap.add_argument("--triangles", type=int, default=1_000_000, help="ray-throughput mesh size (default 1M)")
     ap.add_argument("--rays", type=int, default=1024, help="primary rays per side (default 1024; 0: skip)")
     ap.add_argument("--sweep", default="", help="scenes to sweep speed/accuracy knobs on, comma-separated "
@@ -102,6 +104,8 @@ def main(argv=None):
         return 0
     if args.repeat < 1:
         ap.error("--repeat must be >= 1")
+    if args.build_repeat < 1:
+        ap.error("--build-repeat must be >= 1")
     chosen = args.device or [d.index for d in devices() if d.type in ("cpu", "gpu")]
     chosen = [int(d) if isinstance(d, str) and d.isdigit() else d for d in chosen]
     size = _size(args.size) if args.size else None
@@ -154,7 +158,8 @@ def main(argv=None):
                 out.flush()
                 r["scenes"][name] = bench_scene(sc, cs, dev, w, h, spp, args.repeat, generic=not args.no_generic)
                 if not args.no_build:
-                    r["builds"][name] = build_times(path, dev, generic=not args.no_generic)
+                    r["builds"][name] = build_times(path, dev, generic=not args.no_generic,
+                                                    repeat=args.build_repeat)
             for name, path in sweep_paths.items():
                 sc, cs = scene_of(name, path)
                 ref = "the tessellated reference" if displaced(sc) else f"reference {args.ref_spp} spp"

@@ -107,11 +107,12 @@ def bench_scene(scene, compiled, device, width, height, spp, repeat, generic=Tru
     return out
 
 
-def build_times(path, device, generic=True):
-    """Cold and warm build seconds of the scene's specialized (and generic) program."""
-    out = {"specialized": measure(path, device, specialize=True)}
+def build_times(path, device, generic=True, repeat=1):
+    """Cold and warm build seconds of the scene's specialized (and generic) program, medians
+    of ``repeat`` fresh caches each (:func:`texray.bench.buildtime.measure`)."""
+    out = {"specialized": measure(path, device, specialize=True, repeat=repeat)}
     if generic:
-        out["generic"] = measure(path, device, specialize=False)
+        out["generic"] = measure(path, device, specialize=False, repeat=repeat)
     return out
 
 
