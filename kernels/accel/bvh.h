@@ -76,6 +76,7 @@ static inline float4 box4_entry(__global const float4* nd, float3 org, float3 di
     return t;
 }
 
+#if TX_SCALAR_TRAVERSAL                  /* core/common.h: a packet program may have none */
 /* Compare-exchange of two (distance, child, count_kind) entries by distance. */
 #define TX_SORT2(i, j) do { if (t[j] < t[i]) { float tt_ = t[i]; t[i] = t[j]; t[j] = tt_; \
     uint c_ = c[i]; c[i] = c[j]; c[j] = c_; c_ = k[i]; k[i] = k[j]; k[j] = c_; } } while (0)
@@ -191,6 +192,7 @@ static inline int bvh_any(TX_GEOM_PARAMS, float3 org, float3 dir, float tmin, fl
 {
     return bvh_any_v(TX_GEOM_ARGS, (float4)(org, 0.0f), (float4)(dir, 0.0f), tmin, tmax);
 }
+#endif
 
 #if TX_INSTANCES
 #include "accel/instance.h"

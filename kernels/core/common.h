@@ -48,6 +48,46 @@
 #endif
 #define TX_OUT_OF_LINE
 
+/* The scalar code a packet program runs (geometry/dispatch.h says why each can be left out):
+ * TX_TRI_GEOM_PACKET, a packet program's triangle hits' geometry as packets (PoCL only);
+ * TX_PRE_GEOM_ONLY, the fused kernel the only kernel (TX_STAGES 0) and the only caller of
+ * surface_eval, with every sphere, quad and triangle hit's geometry and intersection from
+ * the packets; TX_SCALAR_TRAVERSAL, its opposite: a program that traverses the tree one ray
+ * at a time somewhere (the kernels without packets, the stage kernels, instances), which
+ * alone defines bvh_closest and bvh_any (accel/bvh.h) and tests those kinds one ray at a
+ * time (leaf_hit). The helpers that only such code calls are static where it is left out
+ * (TX_LINK_PACKET_KINDS: the scalar intersection and geometry of spheres and quads, the
+ * four-triangle test; TX_LINK_TRI_GEOM: triangle_geom; TX_LINK_QUAD_TEST: the quad test,
+ * which displaced surfaces call too): a static function that no code calls is not compiled
+ * at all, an extern one always is (the mixed scene's fused program compiled 2,600 lines of
+ * IR, 12% of its functions', that no kernel called). Elsewhere they stay extern inline. */
+#if TX_PACKET && TX_TRIANGLES && defined(TX_POCL)
+#define TX_TRI_GEOM_PACKET 1
+#else
+#define TX_TRI_GEOM_PACKET 0
+#endif
+#if TX_PACKET && !TX_STAGES && !TX_INSTANCES
+#define TX_PRE_GEOM_ONLY 1
+#else
+#define TX_PRE_GEOM_ONLY 0
+#endif
+#define TX_SCALAR_TRAVERSAL (!TX_PRE_GEOM_ONLY)
+#if TX_PRE_GEOM_ONLY
+#define TX_LINK_PACKET_KINDS static inline
+#else
+#define TX_LINK_PACKET_KINDS inline
+#endif
+#if TX_PRE_GEOM_ONLY && TX_TRI_GEOM_PACKET
+#define TX_LINK_TRI_GEOM static inline
+#else
+#define TX_LINK_TRI_GEOM inline
+#endif
+#if TX_PRE_GEOM_ONLY && !TX_DISPLACEMENT
+#define TX_LINK_QUAD_TEST static inline
+#else
+#define TX_LINK_QUAD_TEST inline
+#endif
+
 /* A kernel's body as a function of its own, which the __kernel calls with its scalar and
  * pointer arguments: on PoCL out of line (stages/fused.cl says what that saves), elsewhere
  * inline (Intel's compiler vectorizes the kernel across work-items). On PoCL with AVX-512

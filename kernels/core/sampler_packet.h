@@ -100,6 +100,11 @@ static inline TX_CU TX_CMJ_T(cmj_permute_pow2_packet)(TX_CU i, uint l, TX_CU p)
  * multiplies, latency bound -- are straight-line code the compiler interleaves (cmj_cell's
  * two with TX_ADAPTIVE, then the column's and the row's), where the walks' exit tests kept
  * them one after another. */
+/* extern inline where the fused kernel may call it; static (compiled only where called:
+ * accel/packet.h) at 8 lanes in a 16-lane program, whose fused kernel never does */
+#if TX_CMJ_N == 8 && TX_PACKET == 16
+static
+#endif
 inline void TX_CMJ_T(cmj_sample_packet)(TX_CU s, uint N, uint m, TX_CU p, float* x, float* y)
 {
     uint n = N / m;

@@ -77,7 +77,7 @@ static inline int quad_try_root(float u, float3 q00, float3 q10, float3 w0, floa
  * roundings stay within that bound for non-grazing rays, so such a hit cannot
  * be told from the surface the ray starts on (pbrt-v4 6.8.5's reasoning for
  * triangles). */
-inline int quad_intersect_corners(float3 p0, float3 p1, float3 p2, float3 p3, float3 org, float3 dir, float tmin,
+TX_LINK_QUAD_TEST int quad_intersect_corners(float3 p0, float3 p1, float3 p2, float3 p3, float3 org, float3 dir, float tmin,
                                   float tmax, float* t, float2* uv)
 {
     float3 eu = (p1 - p0) + (p2 - p3), ev = (p3 - p0) + (p2 - p1);
@@ -160,7 +160,7 @@ static inline void quad_texcoords(__global const float* corner_uv, float2 param,
  * (P0, P2, P3), then to +z (all four vertices collinear: no normal exists).
  *
  * Texture coordinates: quad_texcoords. */
-inline void quad_geom(__global const QuadVerts* qv, __global const QuadShade* qs, float2 param_uv, Geom* g)
+TX_LINK_PACKET_KINDS void quad_geom(__global const QuadVerts* qv, __global const QuadShade* qs, float2 param_uv, Geom* g)
 {
     float u = param_uv.x, v = param_uv.y;
     float3 p0 = quad_p0(qv), p1 = quad_p1(qv), p2 = quad_p2(qv), p3 = quad_p3(qv);

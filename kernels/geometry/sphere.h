@@ -55,7 +55,7 @@ typedef struct {
     QuadRoots roots;
 } SphereRay;
 
-inline SphereRay sphere_ray(float3 centre, float r, float3 org, float3 dir)
+TX_LINK_PACKET_KINDS SphereRay sphere_ray(float3 centre, float r, float3 org, float3 dir)
 {
     SphereRay s;
     tx_two_diff3(org, centre, &s.fh, &s.fl);
@@ -73,7 +73,7 @@ inline SphereRay sphere_ray(float3 centre, float r, float3 org, float3 dir)
 /* Nearest hit with t in (tmin, tmax), t in units of dir (not normalized).
  * Radius <= 0, a zero direction and NaN anywhere give a miss (every test is
  * written so that NaN fails it). */
-inline int sphere_intersect(__global const Sphere* s, float3 org, float3 dir, float tmin, float tmax, float* t)
+TX_LINK_PACKET_KINDS int sphere_intersect(__global const Sphere* s, float3 org, float3 dir, float tmin, float tmax, float* t)
 {
     float4 cr = sphere_center_radius(s);
     if (!(cr.w > 0.0f && dot3(dir, dir) > 0.0f)) return 0;
@@ -148,7 +148,7 @@ static inline void sphere_tangents(float x, float y, float z, float rho, float r
  * plus gamma(1) |p| for the final addition of the centre.
  *
  * uv: geometry/spherical.h sphere_uv; dP/du, dP/dv: sphere_tangents. */
-inline void sphere_geom(__global const Sphere* s, float3 org, float3 dir, float t, Geom* g)
+TX_LINK_PACKET_KINDS void sphere_geom(__global const Sphere* s, float3 org, float3 dir, float t, Geom* g)
 {
     float4 cr = sphere_center_radius(s);
     float3 c = cr.xyz;

@@ -106,7 +106,7 @@ static inline WoopRay woop_setup(float3 org, float3 dir)
  * prim, at t = tmax; TX_MISS for none, when the interval is open at tmax), so that the
  * closest hit of a ray is the same whatever order a traversal meets the triangles in (a
  * packet's, accel/packet.h, or the scalar one's). */
-inline int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, uint n, uint index, uint best,
+TX_LINK_PACKET_KINDS int triangle_intersect4(const WoopRay* w, __global const TriVerts* tr, uint n, uint index, uint best,
                                float tmin, float tmax, float* t, float* b1, float* b2)
 {
     __global const TriVerts* t1 = tr + (n > 1u ? 1 : 0);
@@ -186,7 +186,7 @@ static inline void tri_corner_uvs(__global const TriShade* ts, __global const fl
  * normalize3); where [duv1 duv2] is singular to float precision (reparam_tangents:
  * a uv triangle of (nearly) zero area, or uvs whose differences overflow) they are an
  * arbitrary orthonormal frame around ng, so that bump mapping never sees NaN. */
-inline void triangle_geom(__global const TriVerts* tv, __global const TriShade* ts, float b1, float b2,
+TX_LINK_TRI_GEOM void triangle_geom(__global const TriVerts* tv, __global const TriShade* ts, float b1, float b2,
                           __global const float* uvs, Geom* g)
 {
     float b0 = 1.0f - b1 - b2;

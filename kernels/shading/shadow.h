@@ -45,6 +45,7 @@ static inline int shadow_ray(const Surface* s, float3 org, int lifted, float3 lp
     return dot3(*d, lifted ? vload3(0, s->ns) : vload3(0, s->ng)) > 0.0f;   /* NaN: 0 */
 }
 
+#if TX_SCALAR_TRAVERSAL
 /* 1 when the light at lpos is visible from the shadow origin org of s. */
 static inline uchar light_visible(const Surface* s, float3 org, int lifted, float3 lpos, TX_GEOM_PARAMS)
 {
@@ -53,6 +54,7 @@ static inline uchar light_visible(const Surface* s, float3 org, int lifted, floa
     if (TX_SHADOWS) return !bvh_any(TX_GEOM_ARGS, org, d, 0.0f, 1.0f);
     return 1;
 }
+#endif
 
 #if TX_PACKET
 /* The shadow origins of a chunk's surface points as vectors: shadow_origin's origin, the

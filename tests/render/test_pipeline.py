@@ -105,3 +105,35 @@ def test_a_fused_render_builds_its_program_without_the_stage_kernels(device, sce
     assert compile_options(f, "pocl")["TX_STAGES"] == 1                  # the whole program unless told
     for kind in ("nvidia", "amd", "intel-cpu", "intel-gpu", "other", None):  # one program for both pipelines
         assert compile_options(f, kind, stages=False)["TX_STAGES"] == 1
+
+
+def test_a_fused_only_packet_program_compiles_no_copy_of_the_scalar_code_packets_replace(device, scenes_dir):
+    """On PoCL a fused-only packet program (core/common.h TX_PRE_GEOM_ONLY) holds no copy of
+    the scalar tests that the packets replace and no 8-lane sampler in a 16-lane program: static
+    there, they are not compiled at all (an extern one is, called or not). Their names are looked
+    for in the program's binary (PoCL's holds its bitcode), those no other name contains; the
+    staged program, which traverses rays one at a time, holds them."""
+    import pyopencl as cl
+    from texray.compile import compile_scene
+    from texray.device import runtime
+    from texray.device.features import compile_options
+    rt = runtime(device)
+    if rt.kind != "pocl":
+        pytest.skip("fused-only programs are PoCL's (compile_options: TX_STAGES)")
+    f = compile_scene(tx.Scene.load(scenes_dir / "bench/mixed.toml")).features
+    scalar = (b"triangle_intersect4", b"quad_intersect_corners", b"sphere_ray")
+
+    width = compile_options(f, rt.kind)["TX_PACKET"]
+    if not width:
+        pytest.skip("no packets (TEXRAY_PACKET=0)")
+
+    def binary(**kw):
+        return rt.program(compile_options(f, rt.kind, **kw)).get_info(cl.program_info.BINARIES)[0]
+
+    fused, staged = binary(stages=False), binary(stages=True)
+    assert b"render_fused_body" in fused and b"light_term_packet" in fused      # the probe finds names
+    assert [n for n in scalar if n in fused] == []
+    assert [n for n in scalar if n in staged] == list(scalar)
+    if width == 16:                              # (an 8-lane program calls both samplers)
+        assert b"cmj_sample_packet8" not in fused and b"cmj_sample_packet8" not in staged
+        assert b"cmj_sample_packet16" in fused
