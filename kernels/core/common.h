@@ -204,7 +204,7 @@ static inline float3 ray_dir(__global const Ray* r) { return vload3(0, r->dir); 
 /* The image's pixel i (three floats in rgb, what the host reads back): the mean of its
  * accumulator a (sum R, G, B, and the samples' count, an exact integer), one IEEE division per
  * channel -- numpy's float32 division by spp or by the count made the same bits on the host
- * until 2026-12-08. The kernels that add to a pixel's sums write it each time, the last time
+ * until 2026-12-07. The kernels that add to a pixel's sums write it each time, the last time
  * with every sample in (stages/fused.cl, stages/shade.cl). */
 static inline void pixel_mean(float4 a, uint i, __global float* rgb)
 {

@@ -413,7 +413,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #undef TX_SAMPLE_C
     }
     /* The pixels' first samples (sample0 0) start the sums, later launches add to them: 0 +
-     * the sum, as the sums of a buffer zeroed first (the host filled it until 2026-12-08: a
+     * the sum, as the sums of a buffer zeroed first (the host filled it until 2026-12-07: a
      * command and a pass over the tile's memory per frame, 0.1-0.6 ms of a 512x256 frame). */
     for (uint q = 0; q < npix; ++q) {
         float4 a = (sample0 ? accum[TX_PIXEL(q)] : (float4)(0.0f)) + (float4)(sum[q], (float)nsamples);

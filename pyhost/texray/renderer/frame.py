@@ -259,7 +259,7 @@ class _Run:
         listed_n, a fixed number of work-items looping over the list), and the host reads each
         length back while the device renders, to count the samples and to stop enqueuing
         rounds after one with an empty list. (Until 2026-12-07 the host decided, in numpy on
-        the read-back sums, and a tile ran as two halves on two queues; until 2026-12-08 it
+        the read-back sums, and a tile ran as two halves on two queues; until 2026-12-07 it
         waited for each length to size the next launch: README "Adaptive sampling".)"""
         q, spp, width, u32 = self.rt.queue, self.spp, self.width, np.uint32
         done, listed, reads = 0, None, []
