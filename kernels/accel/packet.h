@@ -135,31 +135,21 @@ static inline pfloat safe_inverse_p(pfloat x)
 }
 
 /* packet_min: the smallest lane of v (the packet's nearest entry into a box: the traversal's
- * order); packet_max: the largest (TX_MIN, TX_MAX halving the vector). */
+ * order); packet_max: the largest (TX_MIN, TX_MAX halving the vector); packet_min_int: the
+ * smallest lane of an int vector (its lane selects as bit operations: PSEL_I). */
 #if TX_PACKET == 16
-#define TX_PACKET_REDUCE(name, op) static inline float name(pfloat v) \
-    { float8 v8 = op(v.lo, v.hi); float4 v4 = op(v8.lo, v8.hi); float2 v2 = op(v4.lo, v4.hi); return op(v2.x, v2.y); }
+#define TX_PACKET_REDUCE(name, op, last, T) static inline T name(T##16 v) \
+    { T##8 v8 = op(v.lo, v.hi); T##4 v4 = op(v8.lo, v8.hi); T##2 v2 = op(v4.lo, v4.hi); return last(v2.x, v2.y); }
 #else
-#define TX_PACKET_REDUCE(name, op) static inline float name(pfloat v) \
-    { float4 v4 = op(v.lo, v.hi); float2 v2 = op(v4.lo, v4.hi); return op(v2.x, v2.y); }
+#define TX_PACKET_REDUCE(name, op, last, T) static inline T name(T##8 v) \
+    { T##4 v4 = op(v.lo, v.hi); T##2 v2 = op(v4.lo, v4.hi); return last(v2.x, v2.y); }
 #endif
-TX_PACKET_REDUCE(packet_min, TX_MIN)
-TX_PACKET_REDUCE(packet_max, TX_MAX)
-#undef TX_PACKET_REDUCE
-/* The smallest lane of an int vector (lane selects as bit operations: PSEL_I). */
-static inline int packet_min_int(pint v)
-{
 #define TX_IMIN(a, b) PSEL_I((a) < (b), a, b)
-#if TX_PACKET == 16
-    int8 v8 = TX_IMIN(v.lo, v.hi);
-#else
-    int8 v8 = v;
-#endif
-    int4 v4 = TX_IMIN(v8.lo, v8.hi);
-    int2 v2 = TX_IMIN(v4.lo, v4.hi);
+TX_PACKET_REDUCE(packet_min, TX_MIN, TX_MIN, float)
+TX_PACKET_REDUCE(packet_max, TX_MAX, TX_MAX, float)
+TX_PACKET_REDUCE(packet_min_int, TX_IMIN, TX_MIN, int)
 #undef TX_IMIN
-    return v2.x < v2.y ? v2.x : v2.y;
-}
+#undef TX_PACKET_REDUCE
 
 /* The component of v along axis k (0, 1, 2) of a packet's uniform shear. */
 #define TX_PAXIS(k, x, y, z) ((k) == 0 ? (x) : ((k) == 1 ? (y) : (z)))

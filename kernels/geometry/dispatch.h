@@ -80,11 +80,9 @@ static inline int leaf_hit(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 
     uint end = first + (ck & LEAF_COUNT_MASK), kind = ck >> LEAF_COUNT_BITS;
     float t;
     float2 uv;
-#if !TX_SCALAR_TRAVERSAL
-    if (0) {                                 /* the packets test triangles, spheres and quads */
-    }
-#else
-    if (TX_TRIANGLES && !scalar_kinds && kind == PRIM_TRIANGLE) {
+    /* TX_SCALAR_TRAVERSAL 0: the packets test triangles, spheres and quads, and the constant
+     * false conditions below leave their scalar tests out of the program (core/common.h) */
+    if (TX_TRIANGLES && TX_SCALAR_TRAVERSAL && !scalar_kinds && kind == PRIM_TRIANGLE) {
         /* Four at a time (triangle_intersect4); counted from 0, so that no index wraps. */
         uint count = end > first ? end - first : 0u;
         for (uint k = 0; k < count; k += 4u) {
@@ -97,9 +95,8 @@ static inline int leaf_hit(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 
             }
         }
     }
-#endif
-#if TX_SPHERES && TX_SCALAR_TRAVERSAL
-    else if (!scalar_kinds && kind == PRIM_SPHERE) {
+#if TX_SPHERES
+    else if (TX_SCALAR_TRAVERSAL && !scalar_kinds && kind == PRIM_SPHERE) {
         for (uint i = first; i < end; ++i)
             if (sphere_intersect(spheres + i, org, dir, tmin, h->t, &t)) {
                 h->t = t; h->prim = (PRIM_SPHERE << HIT_KIND_SHIFT) | i;
@@ -116,8 +113,8 @@ static inline int leaf_hit(TX_GEOM_PARAMS, const WoopRay* w, float3 org, float3 
             }
     }
 #endif
-#if TX_QUADS && TX_SCALAR_TRAVERSAL
-    else if (!scalar_kinds && kind == PRIM_QUAD) {
+#if TX_QUADS
+    else if (TX_SCALAR_TRAVERSAL && !scalar_kinds && kind == PRIM_QUAD) {
         for (uint i = first; i < end; ++i)
             if (quad_intersect(quads + i, org, dir, tmin, h->t, &t, &uv)) {
                 h->t = t; h->b1 = uv.x; h->b2 = uv.y; h->prim = (PRIM_QUAD << HIT_KIND_SHIFT) | i;

@@ -82,8 +82,8 @@ def time_to_error(cmp, w, h, s, device, mitsuba_rgb, mitsuba_s, repeat=1, mitsub
         kw = {k: best[k] for k in ("spp", "adaptive", "light_sampling") if k in best}
         times = paired({"texray": lambda: tx.render(cmp, w, h, device=device, seed=1, **kw).stats["render_s"],
                         "mitsuba": mitsuba.frame}, repeat)
-        best = out["texray"] = {**best, "scan_render_s": best["render_s"],
-                                "render_s": median_spread(times["texray"])["median"]}
+        out["texray"] = {**best, "scan_render_s": best["render_s"],
+                         "render_s": median_spread(times["texray"])["median"]}
         out["mitsuba_s"] = median_spread(times["mitsuba"])["median"]
         out["round_ratios"] = median_spread(round_ratios(times["mitsuba"], times["texray"]))
     return out
