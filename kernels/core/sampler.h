@@ -199,17 +199,16 @@ static inline uint hash_u32(uint x)
 }
 
 /* One light per camera sample (TX_ONE_LIGHT, render(light_sampling="one")): the light that
- * sample `sample` of the pixel with CMJ pattern p takes, of n >= 1. The pixel's samples take
- * the lights in turn, in blocks of b consecutive samples (light_block), from an offset drawn
- * per pixel: any run of a pixel's samples gives every light the same count to within b
- * (stratified, not drawn per sample: less noise for the same work), and a pixel whose spp is
- * a multiple of n gives each light exactly 1/n of them. Each sample's position in the pixel
- * is uniform whatever its index, so the estimator n x (the picked light's term) is unbiased:
- * exactly where spp is a multiple of n, else on average over the per-pixel offsets. The
- * offset hashes p with its own salt, independent of the positions' permutations
- * (TX_CMJ_SALT_*). n = 0: 0 (no light is then read). */
-#define TX_LIGHT_SALT 0x2c1b3c6du
-static inline uint light_pick(uint sample, uint p, uint n, uint b)
+ * sample `sample` of the pixel with CMJ pattern p takes, of n >= 1, given the pixel's
+ * light_offset off. The pixel's samples take the lights in turn, in blocks of b consecutive
+ * samples (light_block), from the offset: any run of a pixel's samples gives every light the
+ * same count to within b (stratified, not drawn per sample: less noise for the same work), and
+ * a pixel whose spp is a multiple of n gives each light exactly 1/n of them. Each sample's
+ * position in the pixel is uniform whatever its index, so the estimator n x (the picked
+ * light's term) is unbiased: exactly where spp is a multiple of n, else on average over the
+ * per-pixel offsets. n = 0: 0 (no light is then read). */
+#define TX_LIGHT_SALT 0x2c1b3c6du              /* light_offset's and the adaptive order's */
+static inline uint light_pick(uint sample, uint p, uint off, uint n, uint b)
 {
     if (n == 0u) return 0u;
     b = b > 1u ? b : 1u;
@@ -219,9 +218,28 @@ static inline uint light_pick(uint sample, uint p, uint n, uint b)
      * takes them in a random order of its own instead (each light as often, on random rows) */
     uint i = sample - sample % b + cmj_permute(sample % b, b, hash_u32(p ^ TX_LIGHT_SALT ^ (sample / b)));
 #else
-    uint i = sample / b;
+    uint i = sample >> (31u - clz(b));           /* sample / b: light_block's b is a power of two */
 #endif
-    return (i % n + hash_u32(p ^ TX_LIGHT_SALT) % n) % n;
+    uint k = i % n + off;                        /* (i % n + off) % n: both terms below n */
+    return k >= n ? k - n : k;
+}
+
+/* The offset of light_pick for the pixel of pattern p at spp samples, of n lights: drawn per
+ * pixel (p hashed with its own salt, independent of the positions' permutations,
+ * TX_CMJ_SALT_*) where n does not divide spp, so that the lights short of a sample differ from
+ * pixel to pixel; 0 where it does (and not with adaptive sampling), for there every light
+ * takes exactly spp / n of each pixel's samples whatever the offset, and sample k's position
+ * is a random permutation's per pixel (cmj_cell), so the offset moved nothing but which
+ * samples go where: without it, sample k of every pixel takes the same light, and a packet of
+ * several pixels' block k (stages/fused.cl, light blocks) traces its shadow rays toward one
+ * light. n = 0: 0. */
+static inline uint light_offset(uint p, uint spp, uint n)
+{
+    if (n == 0u) return 0u;
+#if !TX_ADAPTIVE
+    if (spp % n == 0u) return 0u;
+#endif
+    return hash_u32(p ^ TX_LIGHT_SALT) % n;
 }
 
 /* The block b of light_pick for a pixel of spp samples and n lights: the largest power of two

@@ -36,6 +36,19 @@
 #else
 #define TX_PIX_MAX 1
 #endif
+/* Light blocks (one light per sample, packets of several pixels' samples; not with adaptive
+ * sampling, whose light order differs per pixel): where the lights take the pixels' samples in
+ * blocks of b >= 2 (core/sampler.h light_block; then every pixel's sample k takes the same
+ * light, light_offset) and a chunk holds TX_CHUNK / b pixels (texray.device.features.
+ * pixels_per_item), chunk c holds block c of each of its pixels, lane j pixel j / b: all its
+ * lanes take one light and its shadow rays are one coherent packet, where a chunk of one
+ * pixel's consecutive samples took both lights of two (16 lanes, blocks of 8: one packet toward
+ * both lights, which traversed about as much as two coherent ones; README, Light sampling).
+ * Each pixel's samples are still summed in order (block by block), so the image is the same.
+ * TX_LIGHT_BLOCKS: texray.device.features.light_blocks. */
+#if TX_LIGHT_BLOCKS && !(TX_ONE_LIGHT && !TX_ADAPTIVE && TX_MULTI_PIXEL && TX_PACKET && !TX_INSTANCES)
+#error "TX_LIGHT_BLOCKS: one light per sample in packets of several pixels only (texray.device.features.light_blocks)"
+#endif
 
 /* The kernel's body, a function of its own (TX_KERNEL_BODY, core/common.h): on PoCL one
  * call per work-item, out of line. PoCL compiles a kernel three times over (the kernel and
@@ -72,18 +85,32 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
     uint grid_m = cmj_grid_m(spp);
     uint ppx[TX_PIX_MAX], ppy[TX_PIX_MAX], pattern[TX_PIX_MAX];
     float3 sum[TX_PIX_MAX];
+#if TX_ONE_LIGHT
+    uint block = light_block(spp, nlights);
+    uint loff[TX_PIX_MAX];                           /* the pixels' light offsets (core/sampler.h) */
+#endif
     for (uint q = 0; q < npix; ++q) {
         uint pix = TX_PIXEL(q);
         ppx[q] = pix % image_w; ppy[q] = y0 + pix / image_w;
         pattern[q] = pixel_pattern(image_w, ppx[q], ppy[q], seed);
         sum[q] = (float3)(0.0f);
+#if TX_ONE_LIGHT
+        loff[q] = light_offset(pattern[q], spp, nlights);
+#endif
     }
-    /* The npix pixels' samples in chunks of TX_CHUNK, pixel by pixel: the chunk's camera
+    /* The npix pixels' samples in chunks of TX_CHUNK, pixel by pixel (with light blocks block
+     * by block, each chunk one block of every pixel: above): the chunk's camera
      * rays, hits and surfaces, then each light's shadow rays for the whole chunk, then the
      * samples' sums. With TX_PACKET the camera rays and each light's shadow rays are one
      * packet traversal each (accel/packet.h); else TX_CHUNK is 1 and this is the plain
      * per-sample loop. Every pixel adds the same terms in the same order either way. */
     uint total = npix * nsamples;
+#if TX_LIGHT_BLOCKS
+    /* seg: the light blocks' length where a chunk holds block c of each pixel (above), else 0 */
+    uint seg = block > 1u && npix * block == (uint)TX_CHUNK && nsamples % block == 0u && sample0 % block == 0u
+               ? block : 0u;
+    uint lseg = 31u - clz(TX_MAX(seg, 1u));      /* log2 seg: light_block's b is a power of two */
+#endif
 #if TX_PACKET && !TX_INSTANCES
     /* the samples' positions in their pixels, computed for two chunks of 8 at a time (core/sampler.h
      * TX_CMJ_W) */
@@ -99,6 +126,13 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
 #endif
         uchar vis[TX_CHUNK];
         uint lp[TX_CHUNK];                           /* each sample's pixel (0 .. npix - 1) */
+        /* the light lane j's sample picked (core/sampler.h light_pick): its sample in the pixel,
+         * lr[j] where the lanes' samples were stepped (several pixels' packets) */
+#if TX_PACKET && !TX_INSTANCES && TX_PIX_MAX > 1
+#define TX_LIGHT_PICK(j) light_pick(sample0 + lr[j], pattern[lp[j]], loff[lp[j]], nlights, block)
+#else
+#define TX_LIGHT_PICK(j) light_pick(sample0 + k0 + (j) - lp[j] * nsamples, pattern[lp[j]], loff[lp[j]], nlights, block)
+#endif
 #if TX_PACKET && !TX_INSTANCES
         /* the chunk's camera rays, then their closest hits as one packet (accel/packet.h) */
         PacketRay pr;
@@ -106,29 +140,63 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
         uint jo = k0 % (uint)TX_CMJ_W;               /* the chunk's lanes in jxw, jyw */
         pfloat fpx, fpy;                             /* their pixels' coordinates */
 #if TX_PIX_MAX > 1
-        /* each lane's pixel q and sample r in it, stepped lane by lane (no division per lane);
-         * lanes past the end repeat the last sample, never traced */
-        uint lpx[TX_CHUNK], lpy[TX_CHUNK];
+        /* each lane's pixel (lp) and sample in it (lr); lanes past the end repeat the last
+         * sample, never traced */
+        uint lr[TX_CHUNK];
         uint q0 = npix == 1u ? 0u : k0 / nsamples, r0 = k0 - q0 * nsamples;
-        for (uint j = 0, q = q0, r = r0; j < (uint)TX_CHUNK; ++j) {
-            lp[j] = q;
-            lpx[j] = ppx[q]; lpy[j] = ppy[q];
-            if (k0 + j + 1u < total && ++r == nsamples) { r = 0u; ++q; }
-        }
-        fpx = TX_PKT_TO_FLOAT(TX_PKT_ULOAD(lpx)); fpy = TX_PKT_TO_FLOAT(TX_PKT_ULOAD(lpy));
-        if (jitter && jo == 0u) {                    /* the positions of samples k0 .. k0 + TX_CMJ_W - 1 */
-            uint ls[TX_CMJ_W], lpat[TX_CMJ_W];
-            for (uint j = 0, q = q0, r = r0; j < (uint)TX_CMJ_W; ++j) {
-                ls[j] = sample0 + r;
-                lpat[j] = pattern[q];
+#if TX_LIGHT_BLOCKS
+        /* Light blocks: lane g of the work-item's sequence (k0 + j) is sample
+         * (g / TX_CHUNK) seg + g % seg of pixel (g % TX_CHUNK) / seg; as vectors, each pixel's
+         * coordinates and pattern selected into its lanes (npix = TX_CHUNK / seg selects) */
+#define TX_BLOCK_SEL(T_, q_, tab_, out_) do {                                   \
+            out_ = (T_)(tab_[0]);                                                \
+            for (uint p_ = 1u; p_ < npix; ++p_)                                  \
+                out_ ^= (out_ ^ (T_)(tab_[p_])) & as_##T_((q_) == (T_)(p_));   \
+        } while (0)
+        if (seg) {
+            puint lane = TX_PKT_LANE_IDS, qv = lane >> lseg, vx, vy;
+            TX_BLOCK_SEL(puint, qv, ppx, vx);
+            TX_BLOCK_SEL(puint, qv, ppy, vy);
+            PSTORE(qv, lp);
+            PSTORE((puint)((k0 / (uint)TX_CHUNK) << lseg) + (lane & (puint)(seg - 1u)), lr);
+            fpx = TX_PKT_TO_FLOAT(vx); fpy = TX_PKT_TO_FLOAT(vy);
+        } else
+#endif
+        {
+            /* pixel by pixel, stepped lane by lane (no division per lane) */
+            uint lpx[TX_CHUNK], lpy[TX_CHUNK];
+            for (uint j = 0, q = q0, r = r0; j < (uint)TX_CHUNK; ++j) {
+                lp[j] = q; lr[j] = r;
+                lpx[j] = ppx[q]; lpy[j] = ppy[q];
                 if (k0 + j + 1u < total && ++r == nsamples) { r = 0u; ++q; }
+            }
+            fpx = TX_PKT_TO_FLOAT(TX_PKT_ULOAD(lpx)); fpy = TX_PKT_TO_FLOAT(TX_PKT_ULOAD(lpy));
+        }
+        if (jitter && jo == 0u) {                    /* the positions of samples k0 .. k0 + TX_CMJ_W - 1 */
+            uint16 lsv, lpatv;
+#if TX_LIGHT_BLOCKS
+            if (seg) {
+                uint16 g = (uint16)(k0) + (uint16)TX_LANE_IDS_16, jj = g & (uint16)((uint)TX_CHUNK - 1u);
+                lsv = (uint16)(sample0) + ((g / (uint16)((uint)TX_CHUNK)) << lseg) + (jj & (uint16)(seg - 1u));
+                TX_BLOCK_SEL(uint16, jj >> lseg, pattern, lpatv);
+            } else
+#undef TX_BLOCK_SEL
+#endif
+            {
+                uint ls[TX_CMJ_W], lpat[TX_CMJ_W];
+                for (uint j = 0, q = q0, r = r0; j < (uint)TX_CMJ_W; ++j) {
+                    ls[j] = sample0 + r;
+                    lpat[j] = pattern[q];
+                    if (k0 + j + 1u < total && ++r == nsamples) { r = 0u; ++q; }
+                }
+                lsv = vload16(0, ls); lpatv = vload16(0, lpat);
             }
 #if TX_PACKET == 8
             if (total - k0 <= 8u)                    /* one chunk left: 8 lanes (core/sampler.h) */
-                cmj_sample_packet8(vload8(0, ls), spp, grid_m, vload8(0, lpat), jxw, jyw);
+                cmj_sample_packet8(lsv.lo, spp, grid_m, lpatv.lo, jxw, jyw);
             else
 #endif
-                cmj_sample_packet16(vload16(0, ls), spp, grid_m, vload16(0, lpat), jxw, jyw);
+                cmj_sample_packet16(lsv, spp, grid_m, lpatv, jxw, jyw);
         }
 #else
         for (uint j = 0; j < (uint)TX_CHUNK; ++j)
@@ -284,11 +352,10 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
                                                                vm_)), cv); \
         } while (0)
 #if TX_ONE_LIGHT
-        uint block = light_block(spp, nlights);
         if (lit) {
             float3 lposj[TX_CHUNK], lij[TX_CHUNK];
             for (uint j = 0; j < m; ++j) {
-                uint pick = light_pick(sample0 + k0 + j - lp[j] * nsamples, pattern[lp[j]], nlights, block);
+                uint pick = TX_LIGHT_PICK(j);
                 lposj[j] = vload3(0, lights[pick].position);
                 lij[j] = light_intensity(vload3(0, lights[pick].intensity), nlights);
             }
@@ -341,12 +408,11 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
          * (core/sampler.h light_pick), as one packet for the chunk; otherwise each light's
          * for the whole chunk */
 #if TX_ONE_LIGHT
-        uint block = light_block(spp, nlights);
         float3 lposj[TX_CHUNK];
         uint pick[TX_CHUNK];
         if (lit) {
             for (uint j = 0; j < m; ++j) {
-                pick[j] = light_pick(sample0 + k0 + j - lp[j] * nsamples, pattern[lp[j]], nlights, block);
+                pick[j] = TX_LIGHT_PICK(j);
                 lposj[j] = vload3(0, lights[pick[j]].position);
             }
 #if TX_PACKET
@@ -411,6 +477,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
         }
 #undef TX_LP
 #undef TX_SAMPLE_C
+#undef TX_LIGHT_PICK
     }
     /* The pixels' first samples (sample0 0) start the sums, later launches add to them: 0 +
      * the sum, as the sums of a buffer zeroed first (the host filled it until 2026-12-07: a

@@ -14,8 +14,8 @@ __kernel void shadow(__global const Surface* surf, __global uchar* vis, uint n, 
     int lifted;
     float3 org = shadow_origin(&s, &lifted);
 #if TX_ONE_LIGHT
-    uint pick = light_pick(sample, pixel_pattern(image_w, gid % image_w, y0 + gid / image_w, seed), nlights,
-                           light_block(spp, nlights));
+    uint pat = pixel_pattern(image_w, gid % image_w, y0 + gid / image_w, seed);
+    uint pick = light_pick(sample, pat, light_offset(pat, spp, nlights), nlights, light_block(spp, nlights));
 #endif
     FOR_EACH_LIGHT(i, nlights) {
 #if TX_ONE_LIGHT

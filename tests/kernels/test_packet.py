@@ -417,6 +417,30 @@ def test_packet_rule():
     assert packet_width(Features.generic(), "pocl", 16) == 16
 
 
+def test_light_blocks_rule():
+    """One light per sample with packets (not adaptive sampling or instances): light blocks
+    (stages/fused.cl TX_LIGHT_BLOCKS), a packet of 16 holding one block of light_block's
+    samples of each of 16 / b pixels (b >= 2: 4 spp, two lights: 8 pixels, 16 spp: 2); where
+    the blocks are single samples (spp no multiple of twice the light count) the pixels fill
+    the packets as without; every such program takes several pixels per work-item."""
+    from texray.device.features import compile_options, light_block, light_blocks, pixels_per_item
+    one = Features(shadows=True, triangles=True, one_light=True, max_lights=2)
+    spps = (1, 2, 3, 4, 8, 12, 16, 24, 32)
+    assert [light_block(n, 2) for n in spps] == [1, 1, 1, 2, 4, 2, 8, 4, 8]
+    assert [pixels_per_item(one, "pocl", n, block=light_block(n, 2)) for n in spps] == [16, 8, 16, 8, 4, 8, 2, 4, 2]
+    assert [pixels_per_item(one, "pocl", n) for n in spps] == [16, 8, 16, 4, 2, 4, 1, 2, 1]   # no block given
+    assert light_blocks(one, "pocl", 16) and not light_blocks(one, "nvidia", 16)
+    for other in ("adaptive", "instances"):
+        assert not light_blocks(dataclasses.replace(one, **{other: True}), "pocl", 16), other
+        assert pixels_per_item(dataclasses.replace(one, **{other: True}), "pocl", 16, block=8) == 1, other
+    assert not light_blocks(dataclasses.replace(one, one_light=False), "pocl", 16)
+    opts = compile_options(one, "pocl", 32)
+    assert opts["TX_LIGHT_BLOCKS"] == 1 and opts["TX_MULTI_PIXEL"] == 1
+    opts = compile_options(dataclasses.replace(one, one_light=False), "pocl", 32)
+    assert opts["TX_LIGHT_BLOCKS"] == 0 and opts["TX_MULTI_PIXEL"] == 0
+    assert compile_options(one, "nvidia", 16)["TX_LIGHT_BLOCKS"] == 0
+
+
 def test_tracer_packet_rule(monkeypatch):
     """The Tracer's batches of rays take the kind's width of TRACE_PACKET_WIDTHS on every scene
     (8 on PoCL, where frames take 16), none on other kinds; TEXRAY_PACKET overrides it as

@@ -1,6 +1,6 @@
 """One light per sample (render(light_sampling="one"), kernels/core/sampler.h light_pick):
 each sample traces one shadow ray, toward one of the k lights weighted by k, a pixel's
-samples taking the lights in turn from a per-pixel offset. Checked against a float64 numpy
+samples taking the lights in turn (from a per-pixel offset where k does not divide spp). Checked against a float64 numpy
 model of the pick on images lit by each light alone, against the every-light image where
 the two estimators must agree, and across the kernel's paths (packets or not, several
 pixels per work-item, the staged pipeline, adaptive sampling, bands of rows)."""
@@ -35,10 +35,11 @@ def block(spp, k):
 
 
 def picks(width, height, seed, sample, k, spp):
-    """light_pick(sample, pixel_pattern(...), k, light_block(spp, k)) for every pixel: (height, width) ints."""
+    """light_pick(sample, p, light_offset(p, spp, k), k, light_block(spp, k)) for every pixel's pattern p
+    (without adaptive sampling): (height, width) ints."""
     py, px = np.mgrid[0:height, 0:width].astype(np.uint64)
     pattern = hash_u32((py * np.uint64(width) + px) ^ hash_u32(seed))
-    off = hash_u32(pattern ^ np.uint64(0x2c1b3c6d)) % np.uint64(k)
+    off = hash_u32(pattern ^ np.uint64(0x2c1b3c6d)) % np.uint64(k) * np.uint64(spp % k != 0)
     return ((np.uint64(sample // block(spp, k) % k) + off) % np.uint64(k)).astype(int)
 
 
@@ -52,7 +53,7 @@ __kernel void device_picks(__global uint* out, uint w, uint n, uint seed, uint s
     if (i >= n) return;
     uint p = pixel_pattern(w, i % w, i / w, seed);
     for (uint s = 0; s < spp; ++s)
-        out[i * spp + s] = light_pick(s, p, k, light_block(spp, k));
+        out[i * spp + s] = light_pick(s, p, light_offset(p, spp, k), k, light_block(spp, k));
 }
 """
 
@@ -61,7 +62,7 @@ def device_picks(rt, width, height, seed, k, spp, adaptive):
     """The kernels' own light_pick for every sample of every pixel: (spp, height, width) ints."""
     import pyopencl as cl
     from kernel_harness import build_test_program
-    prg = build_test_program(rt, (), _PICK_KERNEL, (f"-DTX_ADAPTIVE={int(adaptive)}",))
+    prg = build_test_program(rt, (), _PICK_KERNEL, (f"-DTX_ADAPTIVE={int(bool(adaptive))}",))
     n = width * height
     out = np.zeros(n * spp, np.uint32)
     buf = cl.Buffer(rt.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
@@ -69,6 +70,33 @@ def device_picks(rt, width, height, seed, k, spp, adaptive):
     prg.device_picks(rt.queue, (n,), None, buf, u(width), u(n), u(seed), u(spp), u(k))
     cl.enqueue_copy(rt.queue, out, buf)
     return out.reshape(height, width, spp).transpose(2, 0, 1).astype(int)
+
+
+_BLOCK_KERNEL = r"""
+#include "core/common.h"
+#include "core/sampler.h"
+__kernel void device_blocks(__global uint* out, uint nspp, uint nk)
+{
+    uint i = get_global_id(0);
+    if (i < nspp * nk) out[i] = light_block(i / nk + 1u, i % nk + 1u);
+}
+"""
+
+
+def test_the_hosts_light_block_is_the_kernels(rt):
+    """texray.device.features.light_block (the host's choice of pixels per work-item for light
+    blocks) against the kernels' light_block, spp 1..64, 1..9 lights."""
+    import pyopencl as cl
+    from kernel_harness import build_test_program
+    from texray.device.features import light_block
+    prg = build_test_program(rt, (), _BLOCK_KERNEL, ("-DTX_ADAPTIVE=0",))
+    nspp, nk = 64, 9
+    out = np.zeros(nspp * nk, np.uint32)
+    buf = cl.Buffer(rt.context, cl.mem_flags.WRITE_ONLY, out.nbytes)
+    prg.device_blocks(rt.queue, (out.size,), None, buf, np.uint32(nspp), np.uint32(nk))
+    cl.enqueue_copy(rt.queue, out, buf)
+    want = [light_block(s, k) for s in range(1, nspp + 1) for k in range(1, nk + 1)]
+    assert out.tolist() == want and set(want) == {1, 2, 4, 8}
 
 
 def alone(scene, lights):
@@ -106,8 +134,14 @@ def test_each_pixel_takes_the_lights_its_pick_gives(device, rt, scenes_dir, path
     assert (n.sum(0) == spp).all() and (n.max(0) - n.min(0)).max() <= (0 if spp % k == 0 else 1)   # stratified
     want = a + k / spp * sum(n[i][..., None] * (s[i] - a) for i in range(k))
     np.testing.assert_allclose(one.rgb, want, rtol=2e-5, atol=2e-6)
-    # and the pick is not the same light everywhere: both lights take the first sample somewhere
-    assert all((pk[0] == i).any() for i in range(k))
+    # where k does not divide spp the offset differs from pixel to pixel: every light takes the
+    # first sample somewhere; where it does, every pixel's sample s takes light (s / b) % k
+    # (core/sampler.h light_offset: 0), so that several pixels' light blocks share a packet
+    if spp % k or adaptive:
+        assert all((np.asarray(pk[0]) == i).any() for i in range(k))
+    else:
+        for smp in range(spp):
+            assert (np.asarray(pk[smp]) == smp // block(spp, k) % k).all()
 
 
 @pytest.mark.parametrize("spp, k", [(32, 2), (16, 2), (64, 4), (24, 3), (12, 2)])
@@ -157,9 +191,11 @@ def test_it_converges_to_the_every_light_image(device, scenes_dir):
     assert rmse(every) < rmse(one16) < 4 * rmse(every)   # the noise the cheaper samples add, bounded
 
 
-@pytest.mark.parametrize("spp", [1, 2, 3, 5, 16])
+@pytest.mark.parametrize("spp", [1, 2, 3, 4, 5, 12, 16, 24])
 def test_every_path_gives_the_same_image(device, scenes_dir, monkeypatch, spp):
-    """Packets of 8 and 16 (several pixels per work-item below 8 spp) and the scalar path trace
+    """Packets of 8 and 16 (several pixels per work-item below 8 spp; with light blocks, at 4,
+    12, 16 and 24 spp, a packet holds one block of 2, 8, 8 or 4 samples of each of 8, 2, 2 or 4
+    pixels, the image's last work-item fewer pixels: pixel by pixel) and the scalar path trace
     the same shadow rays toward the same lights; the staged pipeline computes the same terms."""
     scene = tx.Scene.load(scenes_dir / "bench/textured_meshes.toml")
     kw = dict(device=device, seed=4, light_sampling="one")

@@ -64,10 +64,12 @@ def test_generic_set_turns_on_every_flag():
     opts = compile_options(g)
     assert all(v == 1 for k, v in opts.items()
                if k not in ("TX_STACK_SIZE", "TX_MAX_LIGHTS", "TX_AOVS", "TX_ADAPTIVE", "TX_ONE_LIGHT", "TX_PACKET",
-                            "TX_MULTI_PIXEL", "TX_AVX512"))
-    # packets (and pixels per work-item with them) and AVX-512 are the device's choice
-    # (features.packet_width, pixels_per_item, avx512), not a capability: none without one
+                            "TX_MULTI_PIXEL", "TX_AVX512", "TX_LIGHT_BLOCKS"))
+    # packets (and pixels per work-item and light blocks with them) and AVX-512 are the device's
+    # choice (features.packet_width, pixels_per_item, light_blocks, avx512), not a capability:
+    # none without one
     assert opts["TX_PACKET"] == 0 and opts["TX_MULTI_PIXEL"] == 0 and opts["TX_AVX512"] == 0
+    assert opts["TX_LIGHT_BLOCKS"] == 0
 
 
 def test_feature_bounds():

@@ -206,7 +206,26 @@ def trace_packet_width(f: Features, device_kind: str | None) -> int:
     return packet_width(f, device_kind, rays=True)
 
 
-def pixels_per_item(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES) -> int:
+def light_block(spp: int, lights: int) -> int:
+    """kernels/core/sampler.h light_block without adaptive sampling: the light blocks' length
+    of one light per sample (the largest power of two up to 8 with ``spp`` a multiple of
+    ``lights`` times it; 1 where ``spp`` is no multiple of 2 ``lights``). A test checks it
+    against the kernel's."""
+    b = 1
+    while b < 8 and lights > 0 and spp % (2 * b * lights) == 0:
+        b *= 2
+    return b
+
+
+def light_blocks(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES) -> bool:
+    """TX_LIGHT_BLOCKS: whether the fused kernel packs several pixels' light blocks into a
+    packet (stages/fused.cl; one light per sample with packets, not with adaptive sampling or
+    instances, whose fused kernel traces one sample at a time): then a packet's shadow rays
+    head for one light. Its programs take several pixels per work-item (TX_MULTI_PIXEL)."""
+    return bool(f.one_light and not f.adaptive and not f.instances and packet_width(f, device_kind, samples))
+
+
+def pixels_per_item(f: Features, device_kind: str | None, samples: int = PACKET_MIN_SAMPLES, block: int = 1) -> int:
     """The pixels each work-item of the fused kernel takes (stages/fused.cl's `pixels`): with
     packets (:func:`packet_width`), the count p <= the packet's width whose p x ``samples``
     samples (a fused launch's per pixel), run pixel by pixel through packets of the width,
@@ -214,11 +233,16 @@ def pixels_per_item(f: Features, device_kind: str | None, samples: int = PACKET_
     the smallest such p (1 spp: 8 pixels in a packet of 8; 3 spp: 8 pixels, 24 samples in 3
     packets; 12 spp: 2 pixels in 3 packets, where one pixel took 2 packets of 8 for its 12;
     any multiple of the width: 1); adaptive sampling's rounds take their pixels from the
-    list of those still sampled, p at a time. Else 1. Each pixel adds the same terms in the
-    same order whatever p, so the image does not depend on it."""
+    list of those still sampled, p at a time. With :func:`light_blocks` and light blocks of
+    ``block`` >= 2 samples (:func:`light_block` of the render's spp and light count) that divide
+    ``samples``: width / ``block`` pixels, whose packets each hold one block of every pixel
+    (one light: 16 lanes, two lights at 16 spp: 2 pixels). Else 1. Each pixel adds the same
+    terms in the same order whatever p, so the image does not depend on it."""
     width = packet_width(f, device_kind, samples)
     if not width:
         return 1
+    if block > 1 and samples % block == 0 and width % block == 0 and light_blocks(f, device_kind, samples):
+        return width // block
     s = max(samples, 1)
     return min(range(1, width + 1), key=lambda p: (-(-p * s // width) / p, p))
 
@@ -240,7 +264,8 @@ def compile_options(f: Features, device_kind: str | None = None,
         "TX_STAGES": int(stages or rays or f.aovs or device_kind != "pocl"),
         "TX_PACKET": packet_width(f, device_kind, samples, rays),
         "TX_AVX512": int(avx512(f, device_kind, rays)),
-        "TX_MULTI_PIXEL": int(pixels_per_item(f, device_kind, samples) > 1),
+        "TX_MULTI_PIXEL": int(pixels_per_item(f, device_kind, samples) > 1 or light_blocks(f, device_kind, samples)),
+        "TX_LIGHT_BLOCKS": int(light_blocks(f, device_kind, samples) and not rays),
         "TX_TEXTURES": int(f.textures),
         "TX_VERTEX_NORMALS": int(f.vertex_normals),
         "TX_SPECULAR": int(f.specular),

@@ -18,7 +18,7 @@ import pyopencl as cl
 
 from ..compile.textures import check_device_limits
 from ..device import layout, runtime
-from ..device.features import compile_options, pixels_per_item
+from ..device.features import compile_options, light_block, pixels_per_item
 from ..errors import DeviceError
 from .adaptive import BLOCK_ROWS, FLOOR, round_size, round_sizes
 from .tiling import fused_rows, fused_samples, plan_rows
@@ -117,7 +117,8 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
             progress(min(1.0, run.passes / total_passes))
 
     # the fused kernel's pixels per work-item, for the program device_program built
-    pixels = pixels_per_item(cs.features, rt.kind, launch_samples(width, height, spp, adaptive))
+    pixels = pixels_per_item(cs.features, rt.kind, launch_samples(width, height, spp, adaptive),
+                             block=light_block(spp, len(cs.lights)))
     run.pixels = pixels
     for y0 in range(y_start, y_end, tile):
         tile_rows = min(tile, y_end - y0)
