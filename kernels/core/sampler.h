@@ -247,9 +247,10 @@ static inline uint light_offset(uint p, uint spp, uint n)
  * gets exactly spp / n of the pixel's samples wherever n divides spp (blocks that do not
  * divide spp evenly among the lights measured an RMSE 5-10 times higher at 12 and 24 spp).
  * Blocks of 8 let a packet of 8 consecutive samples (accel/packet.h) trace its shadow rays
- * toward one light, as coherent as with every light. Adaptive sampling
- * (TX_ADAPTIVE) may stop a pixel after any round: there b = 1, so that every round holds
- * every light's samples. A function of the image's spp and the light count only, so every
+ * toward one light, as coherent as with every light; a packet of 16 takes one block of each of
+ * 16 / b pixels (stages/fused.cl, light blocks). Adaptive sampling
+ * (TX_ADAPTIVE) may stop a pixel after any round: there b is the rows of the pixel's sample
+ * grid, each run of them giving every light its share in an order of its own (light_pick). A function of the image's spp and the light count only, so every
  * path (packets or not, the staged pipeline) picks the same lights. */
 static inline uint light_block(uint spp, uint n)
 {
