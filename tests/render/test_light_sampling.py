@@ -213,6 +213,26 @@ def test_every_path_gives_the_same_image(device, scenes_dir, monkeypatch, spp):
     assert not np.array_equal(imgs["0"].rgb, every)     # a different estimator
 
 
+@pytest.mark.parametrize("per_launch", [6, 8])
+def test_light_blocks_in_launches_of_part_of_the_samples(device, scenes_dir, monkeypatch, per_launch):
+    """Where a launch sums only part of a pixel's samples (tiling.MAX_FUSED_SAMPLES), light
+    blocks hold for launches of whole blocks (8 of 16 samples, two lights: blocks of 8) and the
+    kernel goes pixel by pixel for the others (6: launches starting inside a block): the image
+    is the scalar path's either way, bit for bit."""
+    from texray.renderer import tiling
+    scene = tx.Scene.load(scenes_dir / "bench/textured_meshes.toml")
+    w, h = 29, 11
+    monkeypatch.setattr(tiling, "MAX_FUSED_SAMPLES", w * per_launch)
+    assert tiling.fused_samples(w, h, 16) == per_launch
+    imgs = {}
+    for width in ("0", "16"):
+        monkeypatch.setenv("TEXRAY_PACKET", width)
+        imgs[width] = tx.render(scene, w, h, 16, device=device, seed=6, light_sampling="one")
+    assert imgs["16"].stats["packet"] == 16 and imgs["0"].stats["packet"] == 0
+    np.testing.assert_array_equal(imgs["16"].rgb, imgs["0"].rgb)
+    assert imgs["0"].rgb.std() > 0.05
+
+
 def test_rows_and_adaptive_sampling(device, scenes_dir):
     scene = tx.Scene.load(scenes_dir / "showcase.toml")
     kw = dict(device=device, light_sampling="one")
