@@ -105,11 +105,19 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
      * packet traversal each (accel/packet.h); else TX_CHUNK is 1 and this is the plain
      * per-sample loop. Every pixel adds the same terms in the same order either way. */
     uint total = npix * nsamples;
+#if TX_PACKET && !TX_INSTANCES && TX_PIX_MAX > 1
 #if TX_LIGHT_BLOCKS
     /* seg: the light blocks' length where a chunk holds block c of each pixel (above), else 0 */
     uint seg = block > 1u && npix * block == (uint)TX_CHUNK && nsamples % block == 0u && sample0 % block == 0u
                ? block : 0u;
-    uint lseg = 31u - clz(TX_MAX(seg, 1u));      /* log2 seg: light_block's b is a power of two */
+#else
+    const uint seg = 0u;
+#endif
+    /* the lanes' pixels and samples as vectors (below) with light blocks or where a chunk
+     * holds whole pixels; log2 of seg (light_block's b is a power of two) and of nsamples
+     * (core/sampler.h cmj_log2: no llvm.ctlz or ctpop, which Oclgrind cannot run) */
+    uint lseg = seg ? cmj_log2(seg) : 0u, lns = cmj_log2(TX_MAX(nsamples, 1u));
+    int lanes_vec = seg || (nsamples <= (uint)TX_CHUNK && (1u << lns) == nsamples);
 #endif
 #if TX_PACKET && !TX_INSTANCES
     /* the samples' positions in their pixels, computed for two chunks of 8 at a time (core/sampler.h
@@ -140,30 +148,42 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
         uint jo = k0 % (uint)TX_CMJ_W;               /* the chunk's lanes in jxw, jyw */
         pfloat fpx, fpy;                             /* their pixels' coordinates */
 #if TX_PIX_MAX > 1
-        /* each lane's pixel (lp) and sample in it (lr); lanes past the end repeat the last
-         * sample, never traced */
+        /* Each lane's pixel (lp) and sample in it (lr); lanes past the end repeat the last
+         * sample, never traced. As vectors (TX_LANES_QR: lane g = k0 + j of the work-item's
+         * sequence) where the launch's samples per pixel are a power of two up to TX_CHUNK
+         * (whole pixels in a chunk: every several-pixel launch at 1, 2, 4 or 8 spp) -- pixel
+         * g / nsamples, sample g % nsamples -- or with light blocks (seg) -- pixel
+         * (g % TX_CHUNK) / seg, sample (g / TX_CHUNK) seg + g % seg --, each pixel's coordinates
+         * and pattern selected into its lanes (TX_LANES_SEL, one select per pixel of the
+         * chunk); else stepped lane by lane (no division per lane). The scalar stepping was
+         * 7% of the brick wall's instructions at 4 spp (callgrind). */
         uint lr[TX_CHUNK];
         uint q0 = npix == 1u ? 0u : k0 / nsamples, r0 = k0 - q0 * nsamples;
-#if TX_LIGHT_BLOCKS
-        /* Light blocks: lane g of the work-item's sequence (k0 + j) is sample
-         * (g / TX_CHUNK) seg + g % seg of pixel (g % TX_CHUNK) / seg; as vectors, each pixel's
-         * coordinates and pattern selected into its lanes (npix = TX_CHUNK / seg selects) */
-#define TX_BLOCK_SEL(T_, q_, tab_, out_) do {                                   \
-            out_ = (T_)(tab_[0]);                                                \
-            for (uint p_ = 1u; p_ < npix; ++p_)                                  \
-                out_ ^= (out_ ^ (T_)(tab_[p_])) & as_##T_((q_) == (T_)(p_));   \
+#define TX_LANES_QR(T_, g_, q_, r_) do {                                                          \
+            if (seg) {                                                                            \
+                q_ = ((g_) & (T_)((uint)TX_CHUNK - 1u)) >> lseg;                                  \
+                r_ = (((g_) / (T_)((uint)TX_CHUNK)) << lseg) + ((g_) & (T_)(seg - 1u));           \
+            } else {                                                                              \
+                T_ gc_ = (g_) ^ (((g_) ^ (T_)(total - 1u)) & as_##T_((g_) > (T_)(total - 1u)));   \
+                q_ = gc_ >> lns; r_ = gc_ & (T_)(nsamples - 1u);                                  \
+            }                                                                                     \
         } while (0)
-        if (seg) {
-            puint lane = TX_PKT_LANE_IDS, qv = lane >> lseg, vx, vy;
-            TX_BLOCK_SEL(puint, qv, ppx, vx);
-            TX_BLOCK_SEL(puint, qv, ppy, vy);
-            PSTORE(qv, lp);
-            PSTORE((puint)((k0 / (uint)TX_CHUNK) << lseg) + (lane & (puint)(seg - 1u)), lr);
+#define TX_LANES_SEL(T_, q_, lo_, hi_, tab_, out_) do {                                           \
+            out_ = (T_)(tab_[lo_]);                                                               \
+            for (uint p_ = (lo_) + 1u; p_ <= (hi_); ++p_)                                         \
+                out_ ^= (out_ ^ (T_)(tab_[p_])) & as_##T_((q_) == (T_)(p_));                      \
+        } while (0)
+/* the pixels lanes k0 .. k0 + w_ - 1 take: every pixel with light blocks, else from k0's */
+#define TX_LANES_LO (seg ? 0u : k0 >> lns)
+#define TX_LANES_HI(w_) (seg ? npix - 1u : TX_MIN(k0 + (w_) - 1u, total - 1u) >> lns)
+        if (lanes_vec) {
+            puint qv, rv, vx, vy;
+            TX_LANES_QR(puint, (puint)(k0) + TX_PKT_LANE_IDS, qv, rv);
+            TX_LANES_SEL(puint, qv, TX_LANES_LO, TX_LANES_HI((uint)TX_CHUNK), ppx, vx);
+            TX_LANES_SEL(puint, qv, TX_LANES_LO, TX_LANES_HI((uint)TX_CHUNK), ppy, vy);
+            PSTORE(qv, lp); PSTORE(rv, lr);
             fpx = TX_PKT_TO_FLOAT(vx); fpy = TX_PKT_TO_FLOAT(vy);
-        } else
-#endif
-        {
-            /* pixel by pixel, stepped lane by lane (no division per lane) */
+        } else {
             uint lpx[TX_CHUNK], lpy[TX_CHUNK];
             for (uint j = 0, q = q0, r = r0; j < (uint)TX_CHUNK; ++j) {
                 lp[j] = q; lr[j] = r;
@@ -174,15 +194,12 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
         }
         if (jitter && jo == 0u) {                    /* the positions of samples k0 .. k0 + TX_CMJ_W - 1 */
             uint16 lsv, lpatv;
-#if TX_LIGHT_BLOCKS
-            if (seg) {
-                uint16 g = (uint16)(k0) + (uint16)TX_LANE_IDS_16, jj = g & (uint16)((uint)TX_CHUNK - 1u);
-                lsv = (uint16)(sample0) + ((g / (uint16)((uint)TX_CHUNK)) << lseg) + (jj & (uint16)(seg - 1u));
-                TX_BLOCK_SEL(uint16, jj >> lseg, pattern, lpatv);
-            } else
-#undef TX_BLOCK_SEL
-#endif
-            {
+            if (lanes_vec) {
+                uint16 q16, r16;
+                TX_LANES_QR(uint16, (uint16)(k0) + (uint16)TX_LANE_IDS_16, q16, r16);
+                lsv = (uint16)(sample0) + r16;
+                TX_LANES_SEL(uint16, q16, TX_LANES_LO, TX_LANES_HI((uint)TX_CMJ_W), pattern, lpatv);
+            } else {
                 uint ls[TX_CMJ_W], lpat[TX_CMJ_W];
                 for (uint j = 0, q = q0, r = r0; j < (uint)TX_CMJ_W; ++j) {
                     ls[j] = sample0 + r;
@@ -191,6 +208,10 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
                 }
                 lsv = vload16(0, ls); lpatv = vload16(0, lpat);
             }
+#undef TX_LANES_QR
+#undef TX_LANES_SEL
+#undef TX_LANES_LO
+#undef TX_LANES_HI
 #if TX_PACKET == 8
             if (total - k0 <= 8u)                    /* one chunk left: 8 lanes (core/sampler.h) */
                 cmj_sample_packet8(lsv.lo, spp, grid_m, lpatv.lo, jxw, jyw);
