@@ -270,7 +270,7 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
         Geom pre[TX_CHUNK];
         uint pidx[TX_CHUNK];
         int has_pre[TX_CHUNK];
-        for (uint j = 0; j < (uint)TX_CHUNK; ++j) pidx[j] = (uint)hp[j] & HIT_INDEX_MASK;
+        PSTORE(as_puint(ph.prim) & (puint)(HIT_INDEX_MASK), pidx);
         pint hit_kind = as_pint(as_puint(ph.prim) >> HIT_KIND_SHIFT), pre_lanes = (pint)(0);
 #if TX_SURFACE_PACKET
         /* the geometry as vectors for surface_packet, not as records (shading/surface_packet.h) */
