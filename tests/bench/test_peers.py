@@ -357,7 +357,34 @@ def test_frames_alternate_texray_and_mitsuba_round_by_round(monkeypatch, tmp_pat
                            np.full((4, 4, 3), 0.5) + 0.1 / 16, 0.030, repeat=3, mitsuba=FakeMitsuba(None, 4, 4, 16))
     best = out["texray"]
     assert best["spp"] == 16 and best.get("light_sampling") == "one"   # the fastest setting at the error
-    assert log[-12:] == ["one", "one", "mitsuba", "mitsuba"] * 3   # timed again, in rounds with Mitsuba's
+    # the settings within TTE_RETIME of the fastest (one light at 16 and 24 spp) timed again, in
+    # rounds with Mitsuba's
+    assert [(c["spp"], c.get("light_sampling")) for c in out["retimed"]] == [(16, "one"), (24, "one")]
+    assert log[-18:] == ["one", "one", "one", "one", "mitsuba", "mitsuba"] * 3
     assert best["render_s"] == pytest.approx(0.020) and out["mitsuba_s"] == pytest.approx(0.060)
     assert out["round_ratios"]["median"] == pytest.approx(3.0)
     assert best["scan_render_s"] == pytest.approx(0.020)           # its time in the search
+
+    # a setting slower in the search than in the rounds (the load moved) is chosen by the rounds
+    rounds = []
+    slow_in_search = lambda spp, one: one and spp == 16 and not rounds
+
+    def fake_render2(scene, w, h, spp=1, device=None, seed=0, adaptive=None, light_sampling=None):
+        t = (0.010 if light_sampling == "one" else 0.020) * spp / 16 * (1.6 if slow_in_search(spp, light_sampling) else 1)
+        return SimpleNamespace(rgb=np.full((h, w, 3), 0.5) + (0.0 if spp >= 256 else 0.1 / spp),
+                               stats={"render_s": t, "total_s": t + 1e-3, "samples": spp * w * h})
+
+    class FakeMitsuba2(FakeMitsuba):
+        def frame(self):
+            rounds.append(1)
+            return 0.030
+
+    monkeypatch.setattr(cp.tx, "render", fake_render2)
+    out = cp.time_to_error(cp.peers.comparable_scene(tx.Scene.load(path))[0], 4, 4, 16, None,
+                           np.full((4, 4, 3), 0.5) + 0.1 / 16, 0.030, repeat=3, mitsuba=FakeMitsuba2(None, 4, 4, 16))
+    # the search: 24 spp one light 0.015, 16 spp one light 0.016 (slow), 16 spp every light 0.020
+    # (within 1.5x); in the rounds 16 spp one light takes 0.010 and is chosen over the search's pick
+    assert [(c["spp"], c.get("light_sampling")) for c in out["retimed"]] == [(24, "one"), (16, "one"), (16, None)]
+    assert (out["texray"]["spp"], out["texray"].get("light_sampling")) == (16, "one")
+    assert out["texray"]["render_s"] == pytest.approx(0.010) and out["texray"]["scan_render_s"] == pytest.approx(0.016)
+    assert [c["rounds_render_s"] for c in out["retimed"]] == pytest.approx([0.015, 0.010, 0.020])
