@@ -218,7 +218,7 @@ static inline uint light_pick(uint sample, uint p, uint off, uint n, uint b)
      * takes them in a random order of its own instead (each light as often, on random rows) */
     uint i = sample - sample % b + cmj_permute(sample % b, b, hash_u32(p ^ TX_LIGHT_SALT ^ (sample / b)));
 #else
-    uint i = sample >> (31u - clz(b));           /* sample / b: light_block's b is a power of two */
+    uint i = sample >> cmj_log2(b);              /* sample / b: light_block's b is a power of two */
 #endif
     uint k = i % n + off;                        /* (i % n + off) % n: both terms below n */
     return k >= n ? k - n : k;

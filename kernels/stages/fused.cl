@@ -164,14 +164,14 @@ TX_KERNEL_BODY void render_fused_body(uint gid, __global float4* accum, __global
                 q_ = ((g_) & (T_)((uint)TX_CHUNK - 1u)) >> lseg;                                  \
                 r_ = (((g_) / (T_)((uint)TX_CHUNK)) << lseg) + ((g_) & (T_)(seg - 1u));           \
             } else {                                                                              \
-                T_ gc_ = (g_) ^ (((g_) ^ (T_)(total - 1u)) & as_##T_((g_) > (T_)(total - 1u)));   \
+                T_ gc_ = PSEL_I(as_##T_((g_) > (T_)(total - 1u)), (T_)(total - 1u), g_);          \
                 q_ = gc_ >> lns; r_ = gc_ & (T_)(nsamples - 1u);                                  \
             }                                                                                     \
         } while (0)
 #define TX_LANES_SEL(T_, q_, lo_, hi_, tab_, out_) do {                                           \
             out_ = (T_)(tab_[lo_]);                                                               \
             for (uint p_ = (lo_) + 1u; p_ <= (hi_); ++p_)                                         \
-                out_ ^= (out_ ^ (T_)(tab_[p_])) & as_##T_((q_) == (T_)(p_));                      \
+                out_ = PSEL_I(as_##T_((q_) == (T_)(p_)), (T_)(tab_[p_]), out_);                   \
         } while (0)
 /* the pixels lanes k0 .. k0 + w_ - 1 take: every pixel with light blocks, else from k0's */
 #define TX_LANES_LO (seg ? 0u : k0 >> lns)
