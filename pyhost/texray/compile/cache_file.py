@@ -36,7 +36,7 @@ from ..device.features import Features
 from .scene import CompiledScene
 
 MAGIC = b"TEXRAYSC"
-FORMAT = 1
+FORMAT = 2          # 2: CompiledScene.scale, arrays in device units (texray.compile.units)
 SUFFIX = ".txscene"
 TEMP_SUFFIX = ".tmp"
 ALIGN = 64

@@ -1,7 +1,9 @@
 """The bottom level of the two-level BVH: each mesh that instances share is compiled once
 (its triangles in the mesh's own world space, one 4-wide BLAS) and appended to the
 scene's triangle and node arrays; each texray.Instance becomes one layout.INSTANCE
-record and one box (its BLAS root's box through its matrix) in the top-level tree.
+record and one box (its BLAS root's box through its matrix) in the top-level tree. A
+BLAS whose coordinates are far from 1 is in units of its own (texray.compile.units), which
+its instances' matrices undo.
 
 Moving instances rebuilds only the top level: each BLAS's tree (its leaf order and
 wide nodes) is kept in this process, keyed by a hash of exactly what its build reads
@@ -19,6 +21,7 @@ from ..accel import wide
 from ..accel.scene_bvh import build_scene_bvh
 from ..device import layout
 from ..scene.shape import outward
+from . import units
 
 _EMPTY = (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32))
 # The BLAS trees kept for the next compile: {key: (leaf order, wide nodes, depth)}, least
@@ -99,11 +102,16 @@ def place(b: Blases, arrays, nodes, order):
     """Append the BLASes' triangles (and vertex data) to ``arrays`` and their nodes to the
     top-level ``nodes`` (child indices offset); the INSTANCE records in the top tree's leaf
     order ``order``. Returns (nodes, instance records)."""
-    parts_nodes, roots = [nodes], []
+    parts_nodes, roots, scales = [nodes], [], []
     node_base = len(nodes)
-    for mesh, rec, bn, _, _ in b.meshes:
+    for mesh, rec, bn, _, box in b.meshes:
+        # each BLAS in units of its own (texray.compile.units): its triangles and boxes times a
+        # power of two where its coordinates are far from 1, the instance matrices below over it
+        k = units.choose_scale(units.box_extent(*box))
+        scales.append(k)
         tri_base = len(arrays["tri_verts"])
-        bn = bn.copy()
+        bn = units.scale_fields(bn.copy(), units.NODE_BOUNDS, k)       # the cache's: never written
+        rec = dict(rec, tri_verts=units.scale_fields(rec["tri_verts"], units.LENGTHS["tri_verts"], k))
         leaf = bn["count_kind"] != 0
         empty = ~np.isfinite(bn["lo_x"])
         bn["child"] = np.where(leaf, bn["child"] + np.uint32(tri_base),
@@ -122,8 +130,13 @@ def place(b: Blases, arrays, nodes, order):
         m = inst.matrix()
         inv = np.linalg.inv(m)
         r = rec[i]
-        r["o2w"], r["w2o"] = m[:3], inv[:3]
-        r["nrm"][:, :3] = inv[:3, :3].T
+        # from the BLAS's units (kb per unit of the mesh's space): o2w = M Kb^-1, w2o = Kb M^-1 and
+        # the normal matrix (o2w^-1)^T = kb M^-T (its normals are normalized: a direction)
+        kb = scales[k]
+        o2w, w2o = m[:3].copy(), inv[:3] * kb
+        o2w[:, :3] /= kb
+        r["o2w"], r["w2o"] = o2w, w2o
+        r["nrm"][:, :3] = inv[:3, :3].T * kb
         r["root"], r["object"] = roots[k], obj_id
         r["det_sign"] = 1.0 if np.linalg.det(m[:3, :3]) > 0 else -1.0
     return np.concatenate(parts_nodes), rec[order]

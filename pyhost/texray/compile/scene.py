@@ -23,6 +23,7 @@ from ..scene import Camera, Cylinder, Instance, Mesh, Quad, Scene, Sphere
 from ..scene.shape import check_extent, materials_of, outward
 from ..scene.texture import FILTERS
 from . import instances as inst_blas
+from . import units
 from . import shells as mesh_shells
 from .heights import METHOD_ADAPTIVE, METHOD_IDS, height_key, pack_heights
 from .materials import MaterialTable
@@ -65,6 +66,7 @@ class CompiledScene:
     steps_s: dict | None = None           # seconds of each step of compile_scene (image.stats["compile_steps_s"])
     blas_reused: int = 0                  # instanced meshes whose BLAS came from an earlier compile (instances.py)
     source_key: str | None = None         # the scene cache's key of the scene and options it was compiled from
+    scale: float = 1.0                    # device units per world unit, a power of two (texray.compile.units)
 
     def device_bytes(self) -> dict[str, int]:
         """Bytes each uploaded array takes on the device (absent or empty arrays are not uploaded)."""
@@ -274,8 +276,9 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
                 arrays[n] = layout.take_records(arrays[n], order[cls.PRIM])
     if layout.PRIM_DISPLACED in order:
         disp = layout.take_records(disp, order[layout.PRIM_DISPLACED])
-    instances = None
+    instances, top_tris, top_nodes = None, None, None
     if blases is not None:
+        top_tris, top_nodes = len(arrays["tri_verts"]), len(wide_nodes)
         wide_nodes, instances = inst_blas.place(blases, arrays, wide_nodes, order[layout.PRIM_INSTANCE])
         wide_depth = max(wide_depth, blases.depth)   # the BLAS traversal has its own stack
     step("leaf_order")
@@ -312,7 +315,7 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
                         max_lights=max_lights_for(len(scene.lights)))
     objects, objects_generic = object_table(scene.objects), object_table(scene.objects, always=True)
     step("tables")
-    return CompiledScene(
+    cs = CompiledScene(
         **{n: arrays[n] for n in _DTYPES}, nodes=wide_nodes, normals=arrays.get("normals"), uvs=arrays.get("uvs"),
         materials=materials, textures=tex_table, texels=texels, objects=objects,
         lights=lights, ambient=np.append(ambient, 0).astype(np.float32),
@@ -322,3 +325,5 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
         objects_generic=objects_generic, instances=instances,
         texture_names=tuple(sorted({t.name for o in scene.objects for m in materials_of(o) for t in m.textures})),
         steps_s=steps, blas_reused=blases.reused if blases is not None else 0)
+    # in device units where the geometry's coordinates are far from 1 (texray.compile.units)
+    return units.rescale(cs, units.choose_scale(units.extent(tree.nodes)), top_tris, top_nodes)

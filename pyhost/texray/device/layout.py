@@ -281,6 +281,7 @@ AOVS = {
     "primitive_id": (12, 1), "object_id": (13, 1), "dpdu": (14, 3), "dpdv": (17, 3),
 }
 AOV_FLOATS = 20
+AOV_LENGTHS = ("position", "depth", "dpdu", "dpdv")      # in world units (texray.compile.units)
 
 STRUCTS = {
     "BVHNode": BVH_NODE, "BVH4Node": BVH4_NODE, "TriVerts": TRI_VERTS, "TriShade": TRI_SHADE,

@@ -144,24 +144,28 @@ def render_rows(rt, prg, cs, camera, width, height, spp, rows=None, *, seed=0, j
             report(_Finish(rt.queue))
         if sink is not None:
             rt.queue.finish()
-            sink(y0, out[:tile_rows].copy(), split_aovs(aov_out, aovs, tile_rows))   # out: the next tile's
+            sink(y0, out[:tile_rows].copy(), split_aovs(aov_out, aovs, tile_rows, cs.scale))   # out: the next tile's
     rt.queue.finish()
     if progress is not None and run.passes < total_passes:
         progress(1.0)                   # adaptive sampling ended early
     rgb = None if sink is not None else out
-    aov = {} if sink is not None else split_aovs(aov_out, aovs, band)
+    aov = {} if sink is not None else split_aovs(aov_out, aovs, band, cs.scale)
     stage_s = {name: sum((e.profile.end - e.profile.start) for e in evs) * 1e-9 for name, evs in run.events.items()}
     samples = run.adaptive_samples() if adaptive is not None else width * band * spp
     return Rows(rgb=rgb, aov=aov, tile_rows=tile, tiles=tiles, samples=samples, per_ray=per_ray,
                 ray_buffer_bytes=run.n_max * per_ray, upload_s=upload_s, stage_s=stage_s)
 
 
-def split_aovs(aov_out, names, rows):
-    """``Image.aov`` from the AOV pass's packed floats (texray.device.layout.AOVS)."""
+def split_aovs(aov_out, names, rows, scale=1.0):
+    """``Image.aov`` from the AOV pass's packed floats (texray.device.layout.AOVS), those in
+    world units (layout.AOV_LENGTHS) back from the device's (``scale`` per world unit, a power
+    of two: texray.compile.units)."""
     aov = {}
     for a in names:
         first, count = layout.AOVS[a]
         aov[a] = np.ascontiguousarray(aov_out[:rows, :, first:first + count])
+        if scale != 1.0 and a in layout.AOV_LENGTHS:
+            aov[a] *= np.float32(1.0 / scale)
     return aov
 
 
@@ -216,7 +220,7 @@ class _Run:
             self.row_count = cl.Buffer(ctx, mf.READ_WRITE, rows * 4) if adaptive is not None else None
             cam = np.zeros(1, layout.CAMERA)
             eye, fwd, right, upv = camera.basis(width / height)
-            cam["eye"], cam["forward"], cam["right"], cam["up"] = eye, fwd, right, upv
+            cam["eye"], cam["forward"], cam["right"], cam["up"] = eye * cs.scale, fwd, right, upv   # device units
             self.cam = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=cam)
         except cl.MemoryError as e:
             raise DeviceError(f"render: out of device memory for {n_max} rays per tile; pass a smaller "

@@ -189,6 +189,7 @@ def scene_stats(cs, width, height, spp, specialize, pipeline, adaptive, cache_st
         "bvh_binary_nodes": int(len(cs.bvh.nodes)), "bvh_binary_depth": cs.bvh.depth,
         "bvh_build_s": cs.bvh.build_seconds, "sah_cost": cs.bvh.sah_cost,
         "compile_steps_s": dict(cs.steps_s or {}), "blas_reused": cs.blas_reused,
+        "scene_scale": cs.scale,
         "device_bytes": cs.device_bytes(), "features": cs.features, "specialized": bool(specialize),
         "pipeline": pipeline, "adaptive": adaptive, **cache_stats,
     }

@@ -50,7 +50,12 @@ class Tracer:
     def _rays(self, org, dirs, tmin, tmax):
         n = len(dirs)
         r = np.zeros(n, layout.RAY)
+        # in device units (texray.compile.units): origins and directions alike, so that t is the same
+        s = self.compiled.scale
         r["org"], r["dir"] = np.broadcast_to(org, (n, 3)), dirs
+        if s != 1.0:
+            r["org"] *= np.float32(s)
+            r["dir"] *= np.float32(s)
         r["tmin"], r["tmax"] = tmin, tmax
         mf = cl.mem_flags
         return n, cl.Buffer(self.rt.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=r)
