@@ -196,11 +196,13 @@ def test_traced_rays_are_in_world_units(device):
 
 
 def test_a_light_too_bright_for_the_rescaled_scene_is_an_error():
-    """A scene 1e-12 across is rescaled by 2^40: a light of intensity 1e30 would be 1.2e54,
-    beyond float32 (its radiance there, I / d^2 ~ 1e54, is beyond it as well)."""
+    """A ball of 1e-12 on a floor sphere of 1e-10 is rescaled by 2^33: a light of intensity 1e30
+    would be 7e49, beyond float32 (its radiance there, I / d^2 ~ 1e50, is beyond it as well):
+    an error naming the light, the largest intensity this scene takes and the value."""
     scene = _ball_on_floor("sphere", 1e-12)
     scene.lights[0].intensity = (1e30, 1.0, 1.0)
-    with pytest.raises(SceneError, match=r"lights\[0\]\.intensity: rescaled by"):
+    with pytest.raises(SceneError, match=r"lights\[0\]\.intensity: expected magnitudes up to 4\.61e\+18 in a scene "
+                                         r"whose geometry reaches 1\.16e-10 to 2\.33e-10 .*got \[1e\+30, 1\.0, 1\.0\]"):
         compile_scene(scene)
 
 

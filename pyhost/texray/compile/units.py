@@ -39,6 +39,7 @@ import numpy as np
 
 from ..device import layout
 from ..errors import SceneError
+from ..validate import show
 
 # The range of the geometry's largest coordinate magnitude (world units) left as it is: on
 # the measurements above every kind renders its unit-scale image from 1e-4 to 1e6.
@@ -90,13 +91,20 @@ def scale_fields(arr, fields, s):
     return out
 
 
-def _finite(values, where, field, s):
-    """SceneError unless every one of ``values`` (rescaled) is finite in float32."""
+def _scaled_or_error(values, factor, s, where):
+    """``values`` (float64, the world's) times ``factor`` as float32, or SceneError naming
+    ``where`` and the values where a product leaves float32's range (a scene rescaled by ``s``)."""
     v = np.asarray(values, np.float64)
-    if not np.all(np.abs(v) <= np.finfo(np.float32).max):
-        raise SceneError(f"{where}{field}: rescaled by {s:g} (the scene's coordinates reach "
-                         f"{1.0 / s:g}: texray.compile.units) it exceeds float32's range; "
-                         f"got {np.abs(v[np.isfinite(v)]).max() if np.isfinite(v).any() else v.ravel()[0]:g}")
+    out = v * factor
+    bad = ~(np.abs(out) <= np.finfo(np.float32).max)
+    if bad.any():
+        i = int(np.argwhere(bad.reshape(len(v), -1).any(axis=1))[0][0]) if v.ndim > 1 else None
+        row = v[i] if i is not None else v
+        label = where.format(i=i) if i is not None else where
+        raise SceneError(f"{label}: expected magnitudes up to {np.finfo(np.float32).max / factor:.3g} in a scene "
+                         f"whose geometry reaches {1.0 / s:.3g} to {2.0 / s:.3g} (the device sees it in units of "
+                         f"{1.0 / s:.3g}: texray.compile.units), got {show([float(f'{x:.7g}') for x in np.ravel(row)])}")
+    return out.astype(np.float32)
 
 
 def rescale(cs, s: float, top_tris=None, top_nodes=None):
@@ -134,16 +142,11 @@ def rescale(cs, s: float, top_tris=None, top_nodes=None):
     if len(cs.lights):
         lights = cs.lights.copy()
         lights["position"] = lights["position"] * np.float32(s)
-        intensity = lights["intensity"].astype(np.float64) * (s * s)
-        for i, row in enumerate(intensity):
-            _finite(row, f"lights[{i}].", "intensity", s)
-        lights["intensity"] = intensity.astype(np.float32)
+        lights["intensity"] = _scaled_or_error(lights["intensity"], s * s, s, "lights[{i}].intensity")
         cs.lights = lights
     if len(cs.materials):
         m = cs.materials.copy()
-        bump = m["bump_height"].astype(np.float64) * s
-        _finite(bump, "materials: ", "bump height", s)
-        m["bump_height"] = bump.astype(np.float32)
+        m["bump_height"] = _scaled_or_error(m["bump_height"][:, None], s, s, "materials[{i}].bump.height")[:, 0]
         cs.materials = m
     for name in ("objects", "objects_generic"):
         table = getattr(cs, name)
@@ -153,10 +156,8 @@ def rescale(cs, s: float, top_tris=None, top_nodes=None):
         t["origin"] = t["origin"] * np.float32(s)
         for f in ("nm0", "nm1", "nm2"):          # the normal matrix of S M: M^-T / s (normalized after)
             t[f] = t[f] * np.float32(1.0 / s)
-        for f in ("x", "y", "z"):
-            axis = t[f].astype(np.float64) / s
-            _finite(axis, "mapping: ", f"projection axis {f}", s)
-            t[f] = axis.astype(np.float32)
+        for f in ("x", "y", "z"):                 # k axis: k texture repeats per world unit
+            t[f] = _scaled_or_error(t[f], 1.0 / s, s, "objects[{i}].mapping.scale")
         setattr(cs, name, t)
     cs.scale = s
     return cs
