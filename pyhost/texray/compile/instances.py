@@ -107,11 +107,11 @@ def place(b: Blases, arrays, nodes, order):
     for mesh, rec, bn, _, box in b.meshes:
         # each BLAS in units of its own (texray.compile.units): its triangles and boxes times a
         # power of two where its coordinates are far from 1, the instance matrices below over it
-        k = units.choose_scale(units.box_extent(*box))
-        scales.append(k)
+        kb = units.choose_scale(units.box_extent(*box))
+        scales.append(kb)
         tri_base = len(arrays["tri_verts"])
-        bn = units.scale_fields(bn.copy(), units.NODE_BOUNDS, k)       # the cache's: never written
-        rec = dict(rec, tri_verts=units.scale_fields(rec["tri_verts"], units.LENGTHS["tri_verts"], k))
+        bn = units.scale_fields(bn.copy(), units.NODE_BOUNDS, kb)      # the cache's: never written
+        rec = dict(rec, tri_verts=units.scale_fields(rec["tri_verts"], units.LENGTHS["tri_verts"], kb))
         leaf = bn["count_kind"] != 0
         empty = ~np.isfinite(bn["lo_x"])
         bn["child"] = np.where(leaf, bn["child"] + np.uint32(tri_base),

@@ -92,18 +92,17 @@ def scale_fields(arr, fields, s):
 
 
 def _scaled_or_error(values, factor, s, where):
-    """``values`` (float64, the world's) times ``factor`` as float32, or SceneError naming
-    ``where`` and the values where a product leaves float32's range (a scene rescaled by ``s``)."""
+    """``values`` (rows of world values) times ``factor`` as float32, or SceneError
+    naming ``where`` (formatted with the row's index i) and that row where a product leaves
+    float32's range (a scene rescaled by ``s``)."""
     v = np.asarray(values, np.float64)
     out = v * factor
     bad = ~(np.abs(out) <= np.finfo(np.float32).max)
     if bad.any():
-        i = int(np.argwhere(bad.reshape(len(v), -1).any(axis=1))[0][0]) if v.ndim > 1 else None
-        row = v[i] if i is not None else v
-        label = where.format(i=i) if i is not None else where
-        raise SceneError(f"{label}: expected magnitudes up to {np.finfo(np.float32).max / factor:.3g} in a scene "
-                         f"whose geometry reaches {1.0 / s:.3g} to {2.0 / s:.3g} (the device sees it in units of "
-                         f"{1.0 / s:.3g}: texray.compile.units), got {show([float(f'{x:.7g}') for x in np.ravel(row)])}")
+        i = int(np.argwhere(bad.any(axis=1))[0][0])
+        raise SceneError(f"{where.format(i=i)}: expected magnitudes up to {np.finfo(np.float32).max / factor:.3g} in "
+                         f"a scene whose geometry reaches {1.0 / s:.3g} to {2.0 / s:.3g} (the device sees it in units "
+                         f"of {1.0 / s:.3g}: texray.compile.units), got {show([float(f'{x:.7g}') for x in v[i]])}")
     return out.astype(np.float32)
 
 
