@@ -289,8 +289,10 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
     filters = {t.filter for t, _ in mats.entries}
     slots = {slot for m in mats.materials for slot, _, _ in m.texture_roles()}
     lights = np.zeros(len(scene.lights), layout.POINT_LIGHT)
+    intensities = np.zeros((len(scene.lights), 3))      # float64: units.rescale scales them before rounding
     for i, light in enumerate(scene.lights):
-        lights[i]["position"], lights[i]["intensity"] = light.validate(f"lights[{i}].")
+        lights[i]["position"], intensities[i] = light.validate(f"lights[{i}].")
+        lights[i]["intensity"] = intensities[i]
     features = Features(textures=bool(mats.textures), vertex_normals=any_normals, specular=any_specular,
                         shadows=shadows and bool(scene.lights),
                         triangles=len(arrays["tri_verts"]) > 0,
@@ -326,4 +328,4 @@ def compile_scene(scene: Scene, shadows: bool = True, texture_filter=None, bvh_b
         texture_names=tuple(sorted({t.name for o in scene.objects for m in materials_of(o) for t in m.textures})),
         steps_s=steps, blas_reused=blases.reused if blases is not None else 0)
     # in device units where the geometry's coordinates are far from 1 (texray.compile.units)
-    return units.rescale(cs, units.choose_scale(units.extent(tree.nodes)), top_tris, top_nodes)
+    return units.rescale(cs, units.choose_scale(units.extent(tree.nodes)), top_tris, top_nodes, intensities)

@@ -106,13 +106,15 @@ def _scaled_or_error(values, factor, s, where):
     return out.astype(np.float32)
 
 
-def rescale(cs, s: float, top_tris=None, top_nodes=None):
+def rescale(cs, s: float, top_tris=None, top_nodes=None, intensities=None):
     """The compiled scene ``cs`` in device units, ``s`` per world unit (a power of two):
     its arrays rescaled as the module's docstring lists, ``cs.scale = s``. Returns ``cs``
     itself where ``s`` is 1. With instances, ``top_tris`` and ``top_nodes`` count the
     triangles and wide nodes of the scene's own tree: those after them are the instanced
     meshes' (texray.compile.instances), each in units of its own, which the instances'
-    matrices map to world units (here: to device units)."""
+    matrices map to world units (here: to device units). ``intensities``: the lights' as the
+    scene gives them (float64), rescaled before they are rounded to float32 (a light of 4e-59
+    in a scene 1e-30 across is 0 as a float32, 40 rescaled); else cs.lights'."""
     if s == 1.0:
         return cs
     for name, fields in LENGTHS.items():
@@ -141,7 +143,8 @@ def rescale(cs, s: float, top_tris=None, top_nodes=None):
     if len(cs.lights):
         lights = cs.lights.copy()
         lights["position"] = lights["position"] * np.float32(s)
-        lights["intensity"] = _scaled_or_error(lights["intensity"], s * s, s, "lights[{i}].intensity")
+        world = lights["intensity"] if intensities is None else intensities
+        lights["intensity"] = _scaled_or_error(world, s * s, s, "lights[{i}].intensity")
         cs.lights = lights
     if len(cs.materials):
         m = cs.materials.copy()
