@@ -38,9 +38,11 @@ static inline int adaptive_open(float4 acc, float sum_y2, float threshold, float
  * adaptive_mark), launched as a fixed number of work-items: work-group w's item l takes
  * groups l W + w, + the global size, ... (W work-groups), so that any count is shared by
  * every work-group -- PoCL hands work-groups to its threads in contiguous runs, and groups in
- * launch order left the last work-groups idle (a round took twice as long). */
+ * launch order left the last work-groups idle (a round took twice as long). A launch laid out
+ * in rows (TX_GID, core/common.h) counts its work-groups row by row: W is every row's. */
 #define TX_FOR_LISTED(g, count) \
-    for (uint g = get_local_id(0) * (get_global_size(0) / get_local_size(0)) + get_group_id(0), \
-         g##_end_ = (count); g < g##_end_; g += get_global_size(0))
+    for (uint g##_w_ = (uint)(get_global_size(0) / get_local_size(0)), \
+         g = (uint)get_local_id(0) * g##_w_ * TX_GRID_ROWS() + TX_GROUP_ROW() * g##_w_ + (uint)get_group_id(0), \
+         g##_end_ = (count); g < g##_end_; g += (uint)get_global_size(0) * TX_GRID_ROWS())
 
 #endif

@@ -100,6 +100,26 @@
 #define TX_KERNEL_BODY static inline
 #endif
 
+/* The work-item's index in its launch. On PoCL the host lays a launch wider than
+ * texray.device.opencl.GRID_WIDTH out as rows of at most that width (Runtime.launch_size), so
+ * that no dimension of any grid reaches 65535 work-items: PoCL builds a kernel's work-group
+ * function for grids narrower than that ("smallgrid") and a second, generic one for any wider,
+ * and a process that rendered a scene small (a preview, the bench's 16x16 build probe) and then
+ * at 512x384 (196,608 work-items in one dimension) compiled the kernel twice: 0.9-1.0 s more
+ * for the mixed scene's first large frame. Other drivers keep one dimension (Intel's compiler,
+ * which vectorizes across work-items, rounded a scalar program's image apart in the last bits
+ * with the row's term in the index). TX_GRID_ROWS and TX_GROUP_ROW: the rows and a work-group's
+ * row (stages/fused.cl's list loop, core/adaptive.h). */
+#if TX_POCL
+#define TX_GID() ((uint)get_global_id(1) * (uint)get_global_size(0) + (uint)get_global_id(0))
+#define TX_GRID_ROWS() ((uint)get_global_size(1))
+#define TX_GROUP_ROW() ((uint)get_group_id(1))
+#else
+#define TX_GID() ((uint)get_global_id(0))
+#define TX_GRID_ROWS() 1u
+#define TX_GROUP_ROW() 0u
+#endif
+
 /* Unit roundoff of float32 (2^-24). gamma_n(n) = n u / (1 - n u) bounds the
  * relative error of n chained float operations (Higham; pbrt-v4 3.9). */
 #define TX_FLT_U 5.9604645e-08f

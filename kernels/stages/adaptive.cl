@@ -47,7 +47,7 @@ __kernel void adaptive_mark(__global const float4* accum, __global const float* 
             adaptive_mark_one(accum, sum_y2, active, i, stamp, tag, threshold, floor_y);
         return;
     }
-    uint gid = get_global_id(0);
+    uint gid = TX_GID();
     if (gid < n)
         adaptive_mark_one(accum, sum_y2, active, gid, stamp, tag, threshold, floor_y);
 }
@@ -82,7 +82,7 @@ static inline uint adaptive_row(__global const uchar* stamp, uchar t, uint r, ui
 __kernel void adaptive_count(__global const uchar* stamp, uint tag, uint rows, uint width, uint row0,
                              uint block_rows, __global uint* row_count)
 {
-    uint r = get_global_id(0);
+    uint r = TX_GID();
     if (r < rows)
         row_count[r] = adaptive_row(stamp, (uchar)tag, r, rows, width, row0, block_rows, 0, 0u);
 }
@@ -91,7 +91,7 @@ __kernel void adaptive_count(__global const uchar* stamp, uint tag, uint rows, u
  * and the list's length in *count: one work-item, a tile's rows in turn. */
 __kernel void adaptive_scan(__global uint* row_count, uint rows, __global uint* count)
 {
-    if (get_global_id(0) != 0u) return;
+    if (TX_GID() != 0u) return;
     uint total = 0u;
     for (uint r = 0; r < rows; ++r) {
         uint c = row_count[r];
@@ -105,7 +105,7 @@ __kernel void adaptive_scan(__global uint* row_count, uint rows, __global uint* 
 __kernel void adaptive_list(__global const uchar* stamp, uint tag, uint rows, uint width, uint row0,
                             uint block_rows, __global const uint* row_first, __global uint* active)
 {
-    uint r = get_global_id(0);
+    uint r = TX_GID();
     if (r < rows)
         adaptive_row(stamp, (uchar)tag, r, rows, width, row0, block_rows, active, row_first[r]);
 }

@@ -537,6 +537,6 @@ __kernel void render_fused(__global float4* accum, __global float* rgb, __global
         return;
     }
 #endif
-    render_fused_body(get_global_id(0), accum, rgb, active, sum_y2, n, y0, sample0, nsamples, pixels, seed, jitter,
+    render_fused_body(TX_GID(), accum, rgb, active, sum_y2, n, y0, sample0, nsamples, pixels, seed, jitter,
                       TX_GEOM_ARGS, TX_SURFACE_ARGS, TX_LIGHT_ARGS, ambient, background);
 }

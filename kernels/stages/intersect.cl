@@ -3,7 +3,7 @@
 
 __kernel void intersect(__global const Ray* rays, __global Hit* hits, uint n, TX_GEOM_PARAMS)
 {
-    uint gid = get_global_id(0);
+    uint gid = TX_GID();
     if (gid >= n) return;
     __global const Ray* r = rays + gid;
     HitRec h = bvh_closest(TX_GEOM_ARGS, ray_org(r), ray_dir(r), r->tmin, r->tmax);
@@ -18,7 +18,7 @@ __kernel void intersect(__global const Ray* rays, __global Hit* hits, uint n, TX
  * benchmark and the tests to time and check shadow-ray traversal alone. */
 __kernel void occluded(__global const Ray* rays, __global uchar* out, uint n, TX_GEOM_PARAMS)
 {
-    uint gid = get_global_id(0);
+    uint gid = TX_GID();
     if (gid >= n) return;
     __global const Ray* r = rays + gid;
     out[gid] = (uchar)bvh_any(TX_GEOM_ARGS, ray_org(r), ray_dir(r), r->tmin, r->tmax);
@@ -62,7 +62,7 @@ TX_KERNEL_BODY void occluded_packet_body(uint base, __global const Ray* rays, __
 
 __kernel void occluded_packet(__global const Ray* rays, __global uchar* out, uint n, TX_GEOM_PARAMS)
 {
-    uint base = get_global_id(0) * (uint)TX_PACKET;
+    uint base = TX_GID() * (uint)TX_PACKET;
     if (base >= n) return;
     occluded_packet_body(base, rays, out, n, TX_GEOM_ARGS);
 }
@@ -85,7 +85,7 @@ TX_KERNEL_BODY void intersect_packet_body(uint base, __global const Ray* rays, _
 
 __kernel void intersect_packet(__global const Ray* rays, __global Hit* hits, uint n, TX_GEOM_PARAMS)
 {
-    uint base = get_global_id(0) * (uint)TX_PACKET;
+    uint base = TX_GID() * (uint)TX_PACKET;
     if (base >= n) return;
     intersect_packet_body(base, rays, hits, n, TX_GEOM_ARGS);
 }

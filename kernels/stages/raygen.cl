@@ -5,7 +5,7 @@ __kernel void raygen(__global Ray* rays, __constant Camera* cam,
                      uint width, uint height, uint x0, uint y0, uint tile_w, uint tile_n,
                      uint sample, uint spp, uint seed, uint jitter)
 {
-    uint gid = get_global_id(0);
+    uint gid = TX_GID();
     if (gid >= tile_n) return;
     uint px = x0 + gid % tile_w, py = y0 + gid / tile_w;
     float2 j = jitter ? cmj_sample(sample, spp, pixel_pattern(width, px, py, seed)) : (float2)(0.5f, 0.5f);

@@ -9,7 +9,7 @@ __kernel void shade(__global const Ray* rays, __global const Surface* surf, __gl
                     uint n, __global float4* accum, __global float* rgb,
                     TX_LIGHT_PARAMS, float4 ambient, float4 background)
 {
-    uint gid = get_global_id(0);
+    uint gid = TX_GID();
     if (gid >= n) return;
     float3 c = background.xyz;
     if (surf[gid].valid) {

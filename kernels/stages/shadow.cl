@@ -7,7 +7,7 @@
 __kernel void shadow(__global const Surface* surf, __global uchar* vis, uint n, uint image_w, uint y0, uint sample,
                      uint spp, uint seed, TX_GEOM_PARAMS, TX_LIGHT_PARAMS)
 {
-    uint gid = get_global_id(0);
+    uint gid = TX_GID();
     if (gid >= n) return;
     if (!surf[gid].valid) return;
     Surface s = surf[gid];

@@ -5,7 +5,7 @@
 __kernel void surface(__global const Ray* rays, __global const Hit* hits, __global Surface* out, uint n,
                       TX_GEOM_PARAMS, TX_SURFACE_PARAMS, __global float* aov)
 {
-    uint gid = get_global_id(0);
+    uint gid = TX_GID();
     if (gid >= n) return;
     __global const Hit* gh = hits + gid;
     HitRec h = { gh->t, gh->b1, gh->b2, gh->prim };

@@ -218,11 +218,13 @@ class Runtime:
         return min(value, self.device.max_work_group_size)
 
     def launch_size(self, n: int, local=None):
-        """(global, local) sizes covering ``n`` work-items: the global size rounded up to a
-        multiple of the local one (kernels ignore ids >= n)."""
-        if local is None:
-            return (max(n, 1),), None
-        return ((max(n, 1) + local - 1) // local * local,), (local,)
+        """(global, local) sizes covering ``n`` work-items (kernels ignore ids >= n; a
+        kernel's id is ``TX_GID()``, kernels/core/common.h): one dimension rounded up to a
+        multiple of the local size, or on PoCL, past :data:`GRID_WIDTH`, rows of at most that
+        width (the fewest that fit, each as narrow as they allow: fewer than a row's
+        work-groups left over), so that every launch of a kernel runs the one work-group
+        function PoCL builds for grids narrower than 65535."""
+        return _launch_size(max(int(n), 1), local, rows=self.kind == "pocl")
 
     @property
     def fp64(self):
@@ -333,6 +335,26 @@ def _device_kind(dev) -> str:
 # in flight for incoherent traversal. intel-cpu: 16, the smallest size its compiler runs
 # vectorized (it packs work-items 16 wide with AVX-512, 8 with AVX2, and runs a group's
 # remainder, a whole group below that width, as scalar code).
+# The widest dimension of a launch's grid (launch_size): under PoCL's limit for its "smallgrid"
+# work-group functions (USHRT_MAX, pocl_cache's kernel directory suffix), a multiple of every
+# power-of-two work-group size.
+GRID_WIDTH = 32768
+
+
+def _launch_size(n: int, local, rows: bool = True):
+    """Runtime.launch_size's sizes for n >= 1 work-items; ``rows``: past GRID_WIDTH in rows."""
+    step = local or 1
+    groups = -(-n // step)
+    rows = -(-groups * step // GRID_WIDTH) if rows else 1
+    if rows == 1:
+        glob = (groups * step,)
+    else:
+        glob = (step * -(-groups // rows), rows)
+    if local is None:
+        return glob, None
+    return glob, (local,) + (1,) * (len(glob) - 1)
+
+
 LOCAL_SIZES = {"pocl": 64, "nvidia": 64, "amd": 64, "intel-gpu": 64, "intel-cpu": 16, "other": 0, "default": 0}
 # Work-group size where the program traces ray packets (texray.device.features.packet_width),
 # by kind, in place of LOCAL_SIZES. intel-cpu: 1. Its compiler then runs each work-item's
