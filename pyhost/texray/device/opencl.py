@@ -224,7 +224,7 @@ class Runtime:
         width (the fewest that fit, each as narrow as they allow: fewer than a row's
         work-groups left over), so that every launch of a kernel runs the one work-group
         function PoCL builds for grids narrower than 65535."""
-        return _launch_size(max(int(n), 1), local, rows=self.kind == "pocl")
+        return _launch_size(max(int(n), 1), local, in_rows=self.kind == "pocl")
 
     @property
     def fp64(self):
@@ -341,11 +341,11 @@ def _device_kind(dev) -> str:
 GRID_WIDTH = 32768
 
 
-def _launch_size(n: int, local, rows: bool = True):
-    """Runtime.launch_size's sizes for n >= 1 work-items; ``rows``: past GRID_WIDTH in rows."""
+def _launch_size(n: int, local, in_rows: bool = True):
+    """Runtime.launch_size's sizes for n >= 1 work-items; ``in_rows``: past GRID_WIDTH in rows."""
     step = local or 1
     groups = -(-n // step)
-    rows = -(-groups * step // GRID_WIDTH) if rows else 1
+    rows = -(-groups * step // GRID_WIDTH) if in_rows else 1
     if rows == 1:
         glob = (groups * step,)
     else:
