@@ -29,3 +29,29 @@ def test_bench_refuses_a_build_repeat_below_one(capsys):
     with pytest.raises(SystemExit):
         main(["--build-repeat", "0", "--scenes", "globe"])
     assert "--build-repeat must be >= 1" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["globe", "brick_wall"])
+def test_the_timed_program_is_the_one_the_scene_renders_with(scenes_dir, name, monkeypatch):
+    """The build and the probe's first launch are of the program a render at the scene file's
+    settings asks for (16 spp for the globe, whose program takes one pixel per work-item; 4 for
+    the brick wall): the timing asks for one program, and the render for no other."""
+    import texray as tx
+    from texray.device import opencl
+    asked, program = [], opencl.Runtime.program
+
+    def spy(self, defines, extra_options=()):
+        asked.append(tuple(sorted(defines.items())))
+        return program(self, defines, extra_options)
+
+    monkeypatch.setattr(opencl.Runtime, "program", spy)
+    scene_path = scenes_dir / f"bench/{name}.toml"
+    out = buildtime._time_build(scene_path, "pocl", True)
+    timed = set(asked)
+    settings = tx.Scene.load(scene_path).render_settings
+    assert out["spp"] == settings["spp"] and out["program_s"] > 0 and out["build_s"] >= out["program_s"]
+    assert len(timed) == 1, "the probe launched a program other than the one timed"
+    asked.clear()
+    img = tx.render(tx.Scene.load(scene_path), settings["width"], settings["height"], settings["spp"], device="pocl")
+    assert set(asked) == timed, "the render asked for a program the bench did not time"
+    assert img.rgb.mean() > 0.02
