@@ -1,8 +1,8 @@
 """Kernel build times, cold and warm, measured in a fresh process.
 
 ``python -m texray.bench.buildtime SCENE [--device D] [--generic]`` loads a scene,
-then times building its program (the one a render at the scene file's spp uses) (OpenCL ``clBuildProgram``) plus the code
-generation that drivers defer to a kernel's first launch (PoCL compiles each
+then times building the program a render at the scene file's spp uses (OpenCL
+``clBuildProgram``) plus the code generation that drivers defer to a kernel's first launch (PoCL compiles each
 kernel for its work-group size when it is first enqueued), and prints JSON.
 :func:`measure` runs it twice in subprocesses that share a fresh, empty cache
 directory: the first run is cold (nothing cached: PoCL's kernel cache, the

@@ -91,6 +91,14 @@ def scale_fields(arr, fields, s):
     return out
 
 
+def _scale_head(arr, fields, s, head=None):
+    """:func:`scale_fields` of the first ``head`` rows (the scene's own tree; the instanced
+    meshes' rows after them keep their units), of every row where ``head`` is None."""
+    if head is None:
+        return scale_fields(arr, fields, s)
+    return np.concatenate([scale_fields(arr[:head], fields, s), arr[head:]])
+
+
 def _scaled_or_error(values, factor, s, where):
     """``values`` (rows of world values) times ``factor`` as float32, or SceneError
     naming ``where`` (formatted with the row's index i) and that row where a product leaves
@@ -118,16 +126,8 @@ def rescale(cs, s: float, top_tris=None, top_nodes=None, intensities=None):
     if s == 1.0:
         return cs
     for name, fields in LENGTHS.items():
-        arr = getattr(cs, name)
-        if name == "tri_verts" and top_tris is not None:
-            arr = np.concatenate([scale_fields(arr[:top_tris], fields, s), arr[top_tris:]])
-        else:
-            arr = scale_fields(arr, fields, s)
-        setattr(cs, name, arr)
-    if top_nodes is not None:
-        cs.nodes = np.concatenate([scale_fields(cs.nodes[:top_nodes], NODE_BOUNDS, s), cs.nodes[top_nodes:]])
-    else:
-        cs.nodes = scale_fields(cs.nodes, NODE_BOUNDS, s)
+        setattr(cs, name, _scale_head(getattr(cs, name), fields, s, top_tris if name == "tri_verts" else None))
+    cs.nodes = _scale_head(cs.nodes, NODE_BOUNDS, s, top_nodes)
     if cs.displaced is not None:
         d = scale_fields(cs.displaced, _DISPLACED_LENGTHS, s)
         flat = np.isin(d["shape"], _DISPLACED_EDGES)

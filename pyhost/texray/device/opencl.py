@@ -325,16 +325,6 @@ def _device_kind(dev) -> str:
     return "other"
 
 
-# Work-group size per device kind for the per-ray kernels. 0 = the driver's choice.
-# pocl: 64. `texray bench --local-sizes` measures every size within noise of the
-# driver's choice in frame time (README, Performance), but PoCL compiles a
-# work-group function per local size, and its own choice follows the global size:
-# each new image size paid 0.6-0.7 s of compiling (globe, 1 spp: 1000x700 in 0.72 s
-# against 0.15 s at 64). A fixed size compiles once. GPUs: a multiple of the SIMD
-# width (NVIDIA warp 32, AMD wavefront 64, Intel SIMD 8-32) that keeps enough groups
-# in flight for incoherent traversal. intel-cpu: 16, the smallest size its compiler runs
-# vectorized (it packs work-items 16 wide with AVX-512, 8 with AVX2, and runs a group's
-# remainder, a whole group below that width, as scalar code).
 # The widest dimension of a launch's grid (launch_size): under PoCL's limit for its "smallgrid"
 # work-group functions (USHRT_MAX, pocl_cache's kernel directory suffix), a multiple of every
 # power-of-two work-group size.
@@ -355,6 +345,16 @@ def _launch_size(n: int, local, in_rows: bool = True):
     return glob, (local,) + (1,) * (len(glob) - 1)
 
 
+# Work-group size per device kind for the per-ray kernels. 0 = the driver's choice.
+# pocl: 64. `texray bench --local-sizes` measures every size within noise of the
+# driver's choice in frame time (README, Performance), but PoCL compiles a
+# work-group function per local size, and its own choice follows the global size:
+# each new image size paid 0.6-0.7 s of compiling (globe, 1 spp: 1000x700 in 0.72 s
+# against 0.15 s at 64). A fixed size compiles once. GPUs: a multiple of the SIMD
+# width (NVIDIA warp 32, AMD wavefront 64, Intel SIMD 8-32) that keeps enough groups
+# in flight for incoherent traversal. intel-cpu: 16, the smallest size its compiler runs
+# vectorized (it packs work-items 16 wide with AVX-512, 8 with AVX2, and runs a group's
+# remainder, a whole group below that width, as scalar code).
 LOCAL_SIZES = {"pocl": 64, "nvidia": 64, "amd": 64, "intel-gpu": 64, "intel-cpu": 16, "other": 0, "default": 0}
 # Work-group size where the program traces ray packets (texray.device.features.packet_width),
 # by kind, in place of LOCAL_SIZES. intel-cpu: 1. Its compiler then runs each work-item's
